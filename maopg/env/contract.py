@@ -1,0 +1,130 @@
+"""The option-level contract: the one interface between tasks and learners.
+
+Every learner (MAPPO in its variants, Mac-DQN, evaluation) consumes exactly what is defined
+here, and every task — ours or a user's — produces it through :class:`maopg.env.OptionEnv`.
+
+Time scales
+-----------
+A *tick* (low-level step ``k``) is one control period of the task: a fixed amount of simulated
+time, many physics substeps. One tick is one *sample* for sample counting, as in the paper.
+A *decision point* (option step ``t``) is a tick boundary at which at least one agent must
+choose a new option ("soft-sync"). The set of choosing agents is ``U_t`` (``choosing``); the
+others keep executing ``running[i]``.
+
+Termination strategies (:class:`Strategy`)
+------------------------------------------
+``continue``  only agents whose option ended choose; the others continue (the paper's method).
+``any``       when any option ends, every running option is interrupted and all agents choose.
+``all``       agents whose option ended idle (hold position) until all have ended; all choose.
+``primitive`` every agent chooses a one-tick primitive action at every tick (end2end baseline).
+
+Reward
+------
+``reward`` is the **sum** of the per-tick shared rewards over the ``duration`` ticks since the
+previous decision point, ``discounted_reward`` is ``sum_j gamma**j * r_j`` over the same ticks,
+so a learner bootstraps with ``gamma**duration``. (The original code returned the last tick's
+reward only; that is a bug we do not reproduce.)
+
+Joint options
+-------------
+``OptionEnv.step(joint_option)`` takes one integer per agent. Entries of agents in ``U_t`` must be
+available options of that agent; entries of agents not in ``U_t`` must equal their running
+option (what a conditional policy's joint sample contains) or be ``-1``.
+"""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+
+class Strategy(enum.StrEnum):
+    """How option terminations of different agents are reconciled (DESIGN §3)."""
+
+    CONTINUE = "continue"
+    ANY = "any"
+    ALL = "all"
+    PRIMITIVE = "primitive"
+
+
+@dataclass(frozen=True)
+class AgentSpec:
+    """Static description of one agent, fixed for the lifetime of an environment."""
+
+    name: str
+    robot: str
+    option_names: tuple[str, ...]
+    """Names of the agent's options (or primitive actions in ``primitive`` mode), index = id."""
+    vector_size: int
+    """Length of the agent's observation vector."""
+
+    @property
+    def num_options(self) -> int:
+        return len(self.option_names)
+
+
+@dataclass(frozen=True)
+class EnvSpec:
+    """Static description of an option environment: what a learner sizes its networks from."""
+
+    task: str
+    strategy: Strategy
+    agents: tuple[AgentSpec, ...]
+    image_shape: tuple[int, int, int] | None
+    """``(H, W, 3)`` of every agent's camera image, or ``None`` when images are off."""
+    tick_seconds: float
+    max_ticks: int
+    gamma: float
+
+    @property
+    def num_agents(self) -> int:
+        return len(self.agents)
+
+    @property
+    def option_counts(self) -> tuple[int, ...]:
+        return tuple(a.num_options for a in self.agents)
+
+    @property
+    def agent_names(self) -> tuple[str, ...]:
+        return tuple(a.name for a in self.agents)
+
+
+@dataclass
+class DecisionPoint:
+    """Everything an environment reports at a decision point (and at reset).
+
+    Arrays are indexed by agent in ``EnvSpec.agents`` order. The environment owns its buffers:
+    a learner that keeps a ``DecisionPoint`` across steps must copy the arrays it stores.
+    """
+
+    vectors: tuple[np.ndarray, ...]
+    """Per-agent float32 observation vectors (each refreshed when that agent's option ends)."""
+    images: np.ndarray | None
+    """``uint8 [N, H, W, 3]`` camera images rendered at this decision point, or ``None``."""
+    choosing: np.ndarray
+    """``bool [N]``: the mask ``U_t`` of agents that must choose now."""
+    running: np.ndarray
+    """``int64 [N]``: option executing for each agent; for choosing agents the option that just
+    ended (``-1`` at reset). ``running[~choosing]`` is ``o^{Ū}``, the condition ``c``."""
+    available: tuple[np.ndarray, ...]
+    """Per-agent ``bool [K_i]`` availability masks (meaningful for choosing agents)."""
+    reward: float = 0.0
+    """Sum of per-tick shared rewards since the previous decision point (0 at reset)."""
+    discounted_reward: float = 0.0
+    """``sum_j gamma**j r_j`` over the same ticks."""
+    duration: int = 0
+    """Number of ticks ``k`` since the previous decision point (0 at reset)."""
+    terminated: bool = False
+    """The task reached a terminal state (bootstrap with 0)."""
+    truncated: bool = False
+    """The episode hit the tick limit (bootstrap from the value of this point)."""
+    ticks: int = 0
+    """Ticks elapsed since reset (the episode's low-level time)."""
+    info: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def done(self) -> bool:
+        return self.terminated or self.truncated

@@ -1,0 +1,101 @@
+"""What a task implements so that :class:`maopg.env.OptionEnv` can run it.
+
+A task owns a compiled MuJoCo scene, its robots' adapters, its option sets and its rules
+(reward, termination, observations). It knows nothing about termination *strategies* or
+learners: the option environment decides who chooses when, and calls these hooks. A user's own
+task subclasses :class:`Task`, fills in the abstract methods, and gets every strategy, the
+PettingZoo adapter and every learner for free.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from maopg.options.base import Option
+
+
+@dataclass(frozen=True)
+class TaskConfig:
+    """Settings shared by every task; tasks extend it with their own fields."""
+
+    max_ticks: int = 150
+    images: bool = False
+    """Render each agent's camera into the observation."""
+    image_size: int = 64
+    primitive: bool = False
+    """Give agents one-tick primitive actions instead of options (end2end baseline)."""
+
+
+class Task(ABC):
+    """A cooperative multi-robot task at the tick level."""
+
+    name: str
+    tick_seconds: float
+    config: TaskConfig
+
+    # ----------------------------------------------------------------- static description
+    @property
+    @abstractmethod
+    def agent_names(self) -> tuple[str, ...]:
+        """Agent names, in the order every per-agent array uses."""
+
+    @abstractmethod
+    def robot_of(self, agent: int) -> str:
+        """Registry name of the robot the agent drives."""
+
+    @abstractmethod
+    def options(self, agent: int) -> Sequence[Option]:
+        """The agent's option set (primitive actions when ``config.primitive``)."""
+
+    @abstractmethod
+    def vector_size(self, agent: int) -> int:
+        """Length of the agent's observation vector."""
+
+    # ----------------------------------------------------------------- dynamics
+    @abstractmethod
+    def reset(self, seed: int) -> None:
+        """Start a new episode: physics, task state and every random stream from ``seed``."""
+
+    @abstractmethod
+    def hold(self, agent: int) -> None:
+        """Command the agent's robot to stay put this tick (idle / interrupted agents)."""
+
+    @abstractmethod
+    def tick(self) -> float:
+        """Advance one tick: physics with the commands given this tick, then the rules.
+
+        Returns the shared reward of this tick.
+        """
+
+    @property
+    @abstractmethod
+    def ticks(self) -> int:
+        """Ticks since reset."""
+
+    @abstractmethod
+    def terminated(self) -> bool:
+        """The task reached a terminal state."""
+
+    def solved(self) -> bool:
+        """Whether the episode counts as a success (defaults to termination)."""
+        return self.terminated()
+
+    # ----------------------------------------------------------------- observations
+    @abstractmethod
+    def observe(self, agent: int) -> np.ndarray:
+        """A fresh float32 observation vector of the agent (called when its option ends)."""
+
+    def render(self, agents: Sequence[int], out: np.ndarray) -> None:
+        """Render the listed agents' cameras into ``out[agent]`` (uint8 ``[N, H, W, 3]``)."""
+        raise NotImplementedError(f"task {self.name!r} has no camera observations")
+
+    def describe(self) -> dict[str, object]:
+        """Task state for logs and video overlays (human stage, jar levels, ...)."""
+        return {}
+
+    def close(self) -> None:  # noqa: B027 (optional hook)
+        """Release renderers and other resources."""
