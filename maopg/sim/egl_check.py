@@ -46,8 +46,7 @@ def main() -> int:
     except RuntimeError as exc:
         print(f"[egl-check] FAILED: {exc}", file=sys.stderr)
         print(
-            "[egl-check] headless rendering needs EGL + Mesa. Install them with:\n"
-            f"    {APT_LINE}",
+            f"[egl-check] headless rendering needs EGL + Mesa. Install them with:\n    {APT_LINE}",
             file=sys.stderr,
         )
         return 1

@@ -16,6 +16,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from maopg.options.base import Option
+from maopg.sim.render import CameraRenderer
+from maopg.sim.robots.base import RobotAdapter
+from maopg.sim.scene import Scene
 
 
 @dataclass(frozen=True)
@@ -99,3 +102,33 @@ class Task(ABC):
 
     def close(self) -> None:  # noqa: B027 (optional hook)
         """Release renderers and other resources."""
+
+
+class SceneTask(Task):
+    """A task whose agents are the robots of one compiled :class:`~maopg.sim.scene.Scene`.
+
+    Subclasses set ``self.scene`` and ``self.agent_robots`` (adapters in agent order); this
+    class then provides holding, camera observations and cleanup. The renderer is created on
+    first use, so building a task in a parent process never creates a GL context (a ``fork``ed
+    child would hang on it, DESIGN §2).
+    """
+
+    scene: Scene
+    agent_robots: Sequence[RobotAdapter]
+    _renderer: CameraRenderer | None = None
+
+    def hold(self, agent: int) -> None:
+        self.agent_robots[agent].hold()
+
+    def render(self, agents: Sequence[int], out: np.ndarray) -> None:
+        if self._renderer is None:
+            size = self.config.image_size
+            self._renderer = CameraRenderer(self.scene.model, size, size)
+        for i in agents:
+            camera = self.agent_robots[i].camera_id
+            self._renderer.render(self.scene.data, [camera], out=out[i : i + 1])
+
+    def close(self) -> None:
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None

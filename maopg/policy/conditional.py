@@ -1,0 +1,248 @@
+"""Conditional distributions over joint options (DESIGN §4, paper §III-B..D): pure tensor math.
+
+At a decision point only the agents in ``U`` (``choosing``) pick a new option; every other agent
+``j`` keeps its running option ``c_j``. The paper's conditional policy is the joint categorical
+restricted to the *slice* where ``o_j = c_j`` for all ``j ∉ U``, renormalised:
+
+    log π̂(o^U | c, z) = logit[o^U, c] − logsumexp(logit[·, c])
+
+Unavailable options of choosing agents are removed (−inf) *before* conditioning, so they get
+probability 0 and the remaining ones are renormalised among themselves.
+
+Implementation: the slice is the outer AND of one boolean mask per agent — ``available_i`` for a
+choosing agent, the one-hot of ``c_i`` for a continuing one — so a single ``masked_fill`` and a
+``log_softmax`` over the flattened joint give the exact conditional for every row of a batch at
+once, whatever ``U`` each row has (sync: all choose; async: any subset). The cost is ``B·ΠK_i``,
+which is what the product categorical costs anyway (54 joint options for Tool Delivery).
+``masked_fill`` stops gradients at the masked entries, so only logits inside the slice learn.
+
+Every ``-inf`` here is guarded so that forward *and* backward stay NaN-free: a choosing agent must
+have at least one available option (checked), entropies use ``0·(−inf) = 0``, and marginals never
+take a ``logsumexp`` over an all-``−inf`` lane.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Protocol
+
+import torch
+from torch import Tensor
+
+
+class JointOptionDistribution(Protocol):
+    """What a policy hands to a learner for one batch of decision points.
+
+    Joint options are ``int64 [B, N]``; entries of non-choosing agents equal ``running``.
+    ``log_prob`` and ``entropy`` count only the choosing agents' decision (the continuing
+    agents' options have probability 1 given the condition).
+    """
+
+    def sample(self, generator: torch.Generator | None = None) -> Tensor: ...
+
+    def log_prob(self, joint: Tensor) -> Tensor: ...
+
+    def entropy(self) -> Tensor: ...
+
+    def mode(self) -> Tensor: ...
+
+
+def split_available(available: Tensor, option_counts: Sequence[int]) -> list[Tensor]:
+    """Split ``bool [B, ΣK_i]`` availability into per-agent ``bool [B, K_i]`` masks."""
+    if available.shape[-1] != sum(option_counts):
+        raise ValueError(
+            f"available has {available.shape[-1]} columns, option counts sum to "
+            f"{sum(option_counts)}"
+        )
+    return list(torch.split(available.bool(), list(option_counts), dim=-1))
+
+
+def agent_masks(
+    choosing: Tensor, running: Tensor, available: Tensor, option_counts: Sequence[int]
+) -> list[Tensor]:
+    """Per-agent ``bool [B, K_i]`` masks of the options each agent may take in the slice.
+
+    A choosing agent may take its available options; a continuing agent only its running
+    option (its availability mask is ignored: the option is already executing).
+    Raises ``ValueError`` if some row leaves an agent with nothing, which would make the
+    conditional undefined (a choosing agent with no available option, or a continuing agent
+    whose running option is out of range, e.g. ``-1``).
+    """
+    n = len(option_counts)
+    if choosing.shape[-1] != n or running.shape[-1] != n:
+        raise ValueError(
+            f"{n} agents in the joint, but choosing/running have {choosing.shape[-1]}/"
+            f"{running.shape[-1]} columns"
+        )
+    choosing = choosing.bool()
+    masks = []
+    for i, (avail, k) in enumerate(
+        zip(split_available(available, option_counts), option_counts, strict=True)
+    ):
+        options = torch.arange(k, device=running.device)
+        is_running = options == running[:, i : i + 1]
+        masks.append(torch.where(choosing[:, i : i + 1], avail, is_running))
+    empty = ~torch.stack([m.any(dim=-1) for m in masks], dim=-1)
+    if bool(empty.any()):
+        row, agent = (int(v) for v in empty.nonzero()[0])
+        raise ValueError(
+            f"row {row}: agent {agent} has no admissible option (choosing="
+            f"{bool(choosing[row, agent])}, running={int(running[row, agent])})"
+        )
+    return masks
+
+
+def _outer_and(masks: Sequence[Tensor]) -> Tensor:
+    """``bool [B, K_0, ..., K_{N-1}]`` with entry ``o`` true iff ``masks[i][o_i]`` for all i."""
+    n = len(masks)
+    joint = masks[0].view(masks[0].shape[0], -1, *([1] * (n - 1)))
+    for i in range(1, n):
+        shape = [masks[i].shape[0]] + [1] * i + [masks[i].shape[1]] + [1] * (n - 1 - i)
+        joint = joint & masks[i].view(shape)
+    return joint
+
+
+def joint_slice_mask(
+    choosing: Tensor, running: Tensor, available: Tensor, option_counts: Sequence[int]
+) -> Tensor:
+    """``bool [B, K_0, ..., K_{N-1}]``: the joint options the conditional may put mass on.
+
+    Also what a value-based learner (Mac-DQN) needs for its conditional argmax over joint Q.
+    """
+    return _outer_and(agent_masks(choosing, running, available, option_counts))
+
+
+def ravel_joint(joint: Tensor, option_counts: Sequence[int]) -> Tensor:
+    """``int64 [B, N]`` joint options to flat indices ``[B]`` into the row-major joint."""
+    strides = [math.prod(option_counts[i + 1 :]) for i in range(len(option_counts))]
+    return (joint * torch.tensor(strides, device=joint.device)).sum(dim=-1)
+
+
+def unravel_joint(flat: Tensor, option_counts: Sequence[int]) -> Tensor:
+    """Flat indices ``[B]`` back to ``int64 [B, N]`` joint options."""
+    return torch.stack(torch.unravel_index(flat, tuple(option_counts)), dim=-1)
+
+
+def conditional_log_probs(
+    joint_logits: Tensor, choosing: Tensor, running: Tensor, available: Tensor
+) -> Tensor:
+    """``log π̂`` over the flattened joint, ``[B, ΠK_i]``: −inf outside the slice.
+
+    ``joint_logits`` is ``[B, K_0, ..., K_{N-1}]``; the option counts are read from its shape.
+    """
+    counts = tuple(joint_logits.shape[1:])
+    mask = joint_slice_mask(choosing, running, available, counts)
+    flat = joint_logits.reshape(joint_logits.shape[0], -1)
+    return torch.log_softmax(flat.masked_fill(~mask.reshape(flat.shape), -math.inf), dim=-1)
+
+
+def partial_conditional_log_probs(
+    agent_joint_logits: Sequence[Tensor], choosing: Tensor, running: Tensor, available: Tensor
+) -> list[Tensor]:
+    """Per-agent ``log π̂^i(o^i | c, z^i)``, ``[B, K_i]``, of the partially centralized policy.
+
+    ``agent_joint_logits[i]`` is agent i's own joint logits ``[B, K_0, ..., K_{N-1}]`` (from its
+    local observation). Agent i conditions them on the slice (continuing agents fixed at ``c``,
+    unavailable options removed), marginalises the *other* choosing agents out (logsumexp) and
+    renormalises over its own options. A continuing agent's result is the one-hot of its running
+    option (log-prob 0), i.e. probability 1 (paper Eq. 5).
+    """
+    counts = tuple(agent_joint_logits[0].shape[1:])
+    if len(agent_joint_logits) != len(counts):
+        raise ValueError(f"need one joint-logit tensor per agent ({len(counts)})")
+    masks = agent_masks(choosing, running, available, counts)
+    slice_mask = _outer_and(masks)
+    n = len(counts)
+    result = []
+    for i, logits in enumerate(agent_joint_logits):
+        masked = logits.masked_fill(~slice_mask, -math.inf)
+        # A lane o_i that agent i may not take holds only -inf, and logsumexp's backward over it
+        # is exp(-inf - -inf) = NaN (zeroed again only by the masked_fill's backward). Fill such
+        # lanes with a finite 0 and mask their marginal below, so no NaN exists at any stage.
+        lane_shape = [masks[i].shape[0]] + [1] * i + [counts[i]] + [1] * (n - 1 - i)
+        masked = torch.where(masks[i].view(lane_shape), masked, 0.0)
+        others = tuple(d + 1 for d in range(n) if d != i)
+        marginal = torch.logsumexp(masked, dim=others) if others else masked
+        result.append(torch.log_softmax(marginal.masked_fill(~masks[i], -math.inf), dim=-1))
+    return result
+
+
+def _categorical_entropy(log_probs: Tensor) -> Tensor:
+    """Entropy over the last dim, with ``0·log 0 = 0`` in forward and backward."""
+    finite = torch.isfinite(log_probs)
+    return -(log_probs.exp() * log_probs.masked_fill(~finite, 0.0)).sum(dim=-1)
+
+
+class ConditionalJoint:
+    """The fully centralized conditional ``π̂(o^U | c, z)`` for a batch (product categorical)."""
+
+    def __init__(
+        self, joint_logits: Tensor, choosing: Tensor, running: Tensor, available: Tensor
+    ) -> None:
+        self.option_counts = tuple(joint_logits.shape[1:])
+        self.choosing = choosing.bool()
+        self.running = running
+        self.log_probs = conditional_log_probs(joint_logits, choosing, running, available)
+        """``[B, ΠK_i]`` log-probabilities over the flattened joint (−inf outside the slice)."""
+
+    @property
+    def probs(self) -> Tensor:
+        return self.log_probs.exp()
+
+    def sample(self, generator: torch.Generator | None = None) -> Tensor:
+        flat = torch.multinomial(self.probs, 1, generator=generator).squeeze(-1)
+        return unravel_joint(flat, self.option_counts)
+
+    def log_prob(self, joint: Tensor) -> Tensor:
+        """``log π̂`` of ``int64 [B, N]`` joint options; non-choosing entries are ignored."""
+        joint = torch.where(self.choosing, joint, self.running)
+        flat = ravel_joint(joint, self.option_counts)
+        return self.log_probs.gather(-1, flat.unsqueeze(-1)).squeeze(-1)
+
+    def entropy(self) -> Tensor:
+        return _categorical_entropy(self.log_probs)
+
+    def mode(self) -> Tensor:
+        return unravel_joint(self.log_probs.argmax(dim=-1), self.option_counts)
+
+
+class FactoredConditional:
+    """Independent per-agent conditionals (the partially centralized policy, paper Eq. 5).
+
+    Each choosing agent samples from its own ``π̂^i``; the joint log-prob is the sum over the
+    choosing agents, and so is the entropy. Continuing agents contribute nothing.
+    """
+
+    def __init__(self, agent_log_probs: Sequence[Tensor], choosing: Tensor, running: Tensor):
+        self.agent_log_probs = list(agent_log_probs)
+        """Per-agent ``[B, K_i]`` log-probabilities (one-hot of ``running`` for continuing)."""
+        self.choosing = choosing.bool()
+        self.running = running
+
+    def sample(self, generator: torch.Generator | None = None) -> Tensor:
+        picks = [
+            torch.multinomial(lp.exp(), 1, generator=generator).squeeze(-1)
+            for lp in self.agent_log_probs
+        ]
+        return torch.where(self.choosing, torch.stack(picks, dim=-1), self.running)
+
+    def log_prob(self, joint: Tensor) -> Tensor:
+        """Sum over choosing agents of ``log π̂^i(o^i)``; non-choosing entries are ignored."""
+        joint = torch.where(self.choosing, joint, self.running)
+        per_agent = torch.stack(
+            [
+                lp.gather(-1, joint[:, i : i + 1]).squeeze(-1)
+                for i, lp in enumerate(self.agent_log_probs)
+            ],
+            dim=-1,
+        )
+        return per_agent.masked_fill(~self.choosing, 0.0).sum(dim=-1)
+
+    def entropy(self) -> Tensor:
+        per_agent = torch.stack([_categorical_entropy(lp) for lp in self.agent_log_probs], dim=-1)
+        return per_agent.masked_fill(~self.choosing, 0.0).sum(dim=-1)
+
+    def mode(self) -> Tensor:
+        picks = torch.stack([lp.argmax(dim=-1) for lp in self.agent_log_probs], dim=-1)
+        return torch.where(self.choosing, picks, self.running)

@@ -1,0 +1,168 @@
+"""Observation encoders shared by the policies, the critic and Mac-DQN's Q-network (DESIGN §5).
+
+Images go through one small Nature-style CNN whose weights are shared by every camera the
+encoder sees (agents' cameras look at the same world, and one set of weights learns from N times
+the images); the per-camera features are concatenated with the observation vectors and mixed by
+an MLP. :class:`JointEncoder` reads every agent's observation (the centralized policy and critic);
+:class:`LocalEncoder` reads one agent's own (the partially centralized policy).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import torch
+from torch import Tensor, nn
+
+from maopg.env.contract import EnvSpec
+from maopg.policy.batch import ObsBatch, vector_slices
+
+__all__ = ["JointEncoder", "LocalEncoder", "NatureCNN", "ObsBatch", "init_orthogonal"]
+
+RELU_GAIN = math.sqrt(2.0)
+
+
+def init_orthogonal(module: nn.Module, gain: float) -> None:
+    """Orthogonal weights with ``gain`` and zero biases on every Linear/Conv2d in ``module``.
+
+    The MAPPO reference initialisation: ``sqrt(2)`` for ReLU layers; heads set their own gain.
+    """
+    for layer in module.modules():
+        if isinstance(layer, nn.Linear | nn.Conv2d):
+            nn.init.orthogonal_(layer.weight, gain=gain)
+            nn.init.zeros_(layer.bias)
+
+
+class NatureCNN(nn.Module):
+    """The DQN-Nature conv stack (32-64-64 channels) + a linear layer, for 36-128 px cameras.
+
+    Input: ``uint8 [M, H, W, 3]`` images straight from the environment; scaled to [0, 1] here so
+    rollout buffers can keep bytes. Output: ``float [M, features]`` (after ReLU).
+    """
+
+    MIN_SIZE = 36
+    """Smallest side the 8/4 → 4/2 → 3/1 conv stack maps to at least one pixel."""
+
+    def __init__(self, image_shape: tuple[int, int, int], features: int = 256) -> None:
+        super().__init__()
+        height, width, channels = image_shape
+        if min(height, width) < self.MIN_SIZE or channels != 3:
+            raise ValueError(f"NatureCNN needs RGB images of at least 36x36, got {image_shape}")
+        self.image_shape = tuple(image_shape)
+        self.convs = nn.Sequential(
+            nn.Conv2d(3, 32, kernel_size=8, stride=4),
+            nn.ReLU(),
+            nn.Conv2d(32, 64, kernel_size=4, stride=2),
+            nn.ReLU(),
+            nn.Conv2d(64, 64, kernel_size=3, stride=1),
+            nn.ReLU(),
+            nn.Flatten(),
+        )
+        with torch.no_grad():
+            flat = self.convs(torch.zeros(1, 3, height, width)).shape[1]
+        self.fc = nn.Sequential(nn.Linear(flat, features), nn.ReLU())
+        self.out_dim = features
+        init_orthogonal(self, RELU_GAIN)
+
+    def forward(self, images: Tensor) -> Tensor:
+        if images.dtype != torch.uint8:
+            raise TypeError(f"NatureCNN takes uint8 images (scaled here), got {images.dtype}")
+        x = images.permute(0, 3, 1, 2).float().div_(255.0)
+        return self.fc(self.convs(x))
+
+
+def _mlp(in_dim: int, hidden: int, layers: int) -> nn.Sequential:
+    """``layers`` × (Linear → ReLU), orthogonally initialised for ReLU."""
+    modules: list[nn.Module] = []
+    for index in range(layers):
+        modules += [nn.Linear(in_dim if index == 0 else hidden, hidden), nn.ReLU()]
+    mlp = nn.Sequential(*modules)
+    init_orthogonal(mlp, RELU_GAIN)
+    return mlp
+
+
+class _FusionEncoder(nn.Module):
+    """Images of a subset of agents through one shared CNN, concatenated with their vectors, MLP.
+
+    ``agents`` selects whose vectors (columns of :attr:`ObsBatch.vectors`) and cameras are read.
+    """
+
+    def __init__(
+        self,
+        spec: EnvSpec,
+        agents: Sequence[int],
+        hidden: int,
+        layers: int,
+        cnn_features: int,
+        use_images: bool | None,
+    ) -> None:
+        super().__init__()
+        if use_images is None:
+            use_images = spec.image_shape is not None
+        if use_images and spec.image_shape is None:
+            raise ValueError(f"task {spec.task!r} was created without images")
+        self.agents = tuple(agents)
+        slices = vector_slices(spec)
+        columns = [c for a in self.agents for c in range(slices[a].start, slices[a].stop)]
+        self._all_columns = len(columns) == slices[-1].stop
+        self.register_buffer("columns", torch.tensor(columns, dtype=torch.long), persistent=False)
+        self.register_buffer(
+            "cameras", torch.tensor(self.agents, dtype=torch.long), persistent=False
+        )
+        self.cnn = NatureCNN(spec.image_shape, cnn_features) if use_images else None  # type: ignore[arg-type]
+        in_dim = len(columns) + (len(self.agents) * cnn_features if use_images else 0)
+        if in_dim == 0:
+            raise ValueError("nothing to encode: no vector entries and images off")
+        self.mlp = _mlp(in_dim, hidden, layers)
+        self.out_dim = hidden
+
+    def image_features(self, images: Tensor) -> Tensor:
+        """``uint8 [B, N, H, W, 3]`` → ``[B, n_agents, cnn_features]`` for this encoder's agents."""
+        assert self.cnn is not None
+        selected = images.index_select(1, self.cameras)
+        batch, cams = selected.shape[:2]
+        features = self.cnn(selected.reshape(batch * cams, *selected.shape[2:]))
+        return features.view(batch, cams, -1)
+
+    def forward(self, obs: ObsBatch) -> Tensor:
+        parts = [obs.vectors if self._all_columns else obs.vectors.index_select(1, self.columns)]
+        if self.cnn is not None:
+            if obs.images is None:
+                raise ValueError("this encoder reads images but the batch has none")
+            parts.append(self.image_features(obs.images).flatten(1))
+        return self.mlp(torch.cat(parts, dim=-1))
+
+
+class JointEncoder(_FusionEncoder):
+    """Encodes the joint observation ``z`` (all agents' vectors and cameras) to ``[B, out_dim]``.
+
+    ``use_images=None`` reads images iff the task renders them; ``False`` ignores them.
+    """
+
+    def __init__(
+        self,
+        spec: EnvSpec,
+        hidden: int = 128,
+        layers: int = 2,
+        cnn_features: int = 256,
+        use_images: bool | None = None,
+    ) -> None:
+        super().__init__(spec, range(spec.num_agents), hidden, layers, cnn_features, use_images)
+
+
+class LocalEncoder(_FusionEncoder):
+    """Encodes agent ``agent``'s own observation ``z^i`` (its vector and camera) only."""
+
+    def __init__(
+        self,
+        spec: EnvSpec,
+        agent: int,
+        hidden: int = 128,
+        layers: int = 2,
+        cnn_features: int = 256,
+        use_images: bool | None = None,
+    ) -> None:
+        if not 0 <= agent < spec.num_agents:
+            raise ValueError(f"agent {agent} out of range for {spec.num_agents} agents")
+        super().__init__(spec, [agent], hidden, layers, cnn_features, use_images)

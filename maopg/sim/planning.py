@@ -1,0 +1,289 @@
+"""Grid path planning on the floor plane, around a compiled scene's static geometry.
+
+Water Filling's ground vehicle must go around furniture; its PD tracker only drives straight
+lines, so navigation options ask this planner for waypoints. The planner works on the compiled
+``MjModel`` (no second description of the room): every collidable geom welded to the world whose
+height range meets the robot's ``z_band`` is rasterised into an occupancy grid, inflated by the
+robot's footprint radius (configuration space, so the robot is a point). A* over 8-connected
+cells finds a shortest cell path; line-of-sight shortcutting turns it into a few straight
+segments the tracking controller can follow.
+"""
+
+from __future__ import annotations
+
+import heapq
+import itertools
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+_SQRT2 = math.sqrt(2.0)
+_NEIGHBOURS = tuple(
+    (di, dj, _SQRT2 if di and dj else 1.0) for di in (-1, 0, 1) for dj in (-1, 0, 1) if di or dj
+)
+
+
+@dataclass(frozen=True)
+class OccupancyGrid:
+    """Cells a robot's centre may not occupy. ``blocked[i, j]`` is the cell at row y, column x."""
+
+    origin: tuple[float, float]  # world (x, y) of the centre of cell (0, 0)
+    resolution: float  # cell edge (m)
+    blocked: np.ndarray  # bool, shape (ny, nx)
+
+    def cell(self, xy: Sequence[float]) -> tuple[int, int]:
+        """(row, column) of the cell containing a world point (may be outside the grid)."""
+        return (
+            round((xy[1] - self.origin[1]) / self.resolution),
+            round((xy[0] - self.origin[0]) / self.resolution),
+        )
+
+    def center(self, cell: tuple[int, int]) -> np.ndarray:
+        return np.array(
+            [self.origin[0] + cell[1] * self.resolution, self.origin[1] + cell[0] * self.resolution]
+        )
+
+    def inside(self, cell: tuple[int, int]) -> bool:
+        return 0 <= cell[0] < self.blocked.shape[0] and 0 <= cell[1] < self.blocked.shape[1]
+
+    def is_free(self, xy: Sequence[float]) -> bool:
+        """True when a robot centred at ``xy`` keeps its clearance (outside the grid: False)."""
+        c = self.cell(xy)
+        return self.inside(c) and not self.blocked[c]
+
+    def segment_free(self, a: Sequence[float], b: Sequence[float]) -> bool:
+        """True when every point of the straight segment a-b is in a free cell."""
+        length = math.hypot(b[0] - a[0], b[1] - a[1])
+        n = max(1, math.ceil(length / (0.25 * self.resolution)))
+        for k in range(n + 1):
+            t = k / n
+            if not self.is_free((a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]))):
+                return False
+        return True
+
+
+def _static_obstacle_geoms(model: mujoco.MjModel, z_band: tuple[float, float]) -> list[int]:
+    """Collidable, world-welded, non-plane geoms whose world z-range meets ``z_band``."""
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    out = []
+    for g in range(model.ngeom):
+        if model.body_weldid[model.geom_bodyid[g]] != 0:
+            continue  # moves with a joint (robots, free props)
+        if model.geom_contype[g] == 0 and model.geom_conaffinity[g] == 0:
+            continue  # visual only
+        if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_PLANE:
+            continue  # the floor
+        zmin, zmax = _world_aabb(model, data, g)[2]
+        if zmax >= z_band[0] and zmin <= z_band[1]:
+            out.append(g)
+    return out
+
+
+def _world_aabb(model: mujoco.MjModel, data: mujoco.MjData, g: int) -> np.ndarray:
+    """(3, 2) world axis-aligned bounds of a geom, from its local bounding box."""
+    rot = data.geom_xmat[g].reshape(3, 3)
+    center = data.geom_xpos[g] + rot @ model.geom_aabb[g, :3]
+    half = np.abs(rot) @ model.geom_aabb[g, 3:]
+    return np.stack([center - half, center + half], axis=1)
+
+
+def occupancy_grid(
+    model: mujoco.MjModel,
+    *,
+    radius: float,
+    resolution: float = 0.1,
+    z_band: tuple[float, float] = (0.02, 1.0),
+    bounds: tuple[float, float, float, float] | None = None,
+) -> OccupancyGrid:
+    """Rasterise the static obstacles of ``model`` for a robot of footprint ``radius``.
+
+    A cell is blocked when its centre is closer than ``radius + resolution / sqrt(2)`` to an
+    obstacle's footprint, so *every* point of a free cell keeps ``radius`` of clearance.
+    ``bounds`` = (xmin, xmax, ymin, ymax) defaults to the union of the obstacles' footprints
+    (the walls, in a room). Upright boxes and round geoms use their exact footprint; anything
+    tilted uses its (conservative) world bounding box.
+    """
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    geoms = _static_obstacle_geoms(model, z_band)
+    if bounds is None:
+        if not geoms:
+            raise ValueError("no static obstacles in the z band and no bounds given")
+        boxes = np.array([_world_aabb(model, data, g)[:2] for g in geoms])
+        bounds = (
+            boxes[:, 0, 0].min(),
+            boxes[:, 0, 1].max(),
+            boxes[:, 1, 0].min(),
+            boxes[:, 1, 1].max(),
+        )
+    xmin, xmax, ymin, ymax = bounds
+    nx = math.floor((xmax - xmin) / resolution) + 1
+    ny = math.floor((ymax - ymin) / resolution) + 1
+    xs = xmin + resolution * np.arange(nx)
+    ys = ymin + resolution * np.arange(ny)
+    blocked = np.zeros((ny, nx), dtype=bool)
+    clearance = radius + resolution / _SQRT2
+    for g in geoms:
+        aabb = _world_aabb(model, data, g)
+        lo_x, hi_x = np.searchsorted(xs, [aabb[0, 0] - clearance, aabb[0, 1] + clearance])
+        lo_y, hi_y = np.searchsorted(ys, [aabb[1, 0] - clearance, aabb[1, 1] + clearance])
+        if lo_x >= hi_x or lo_y >= hi_y:
+            continue
+        px, py = np.meshgrid(xs[lo_x:hi_x], ys[lo_y:hi_y])
+        dist = _footprint_distance(model, data, g, aabb, px, py)
+        blocked[lo_y:hi_y, lo_x:hi_x] |= dist < clearance
+    return OccupancyGrid(origin=(float(xmin), float(ymin)), resolution=resolution, blocked=blocked)
+
+
+def _footprint_distance(
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    g: int,
+    aabb: np.ndarray,
+    px: np.ndarray,
+    py: np.ndarray,
+) -> np.ndarray:
+    """Planar distance from points to a geom's footprint (0 inside)."""
+    rot = data.geom_xmat[g].reshape(3, 3)
+    cx, cy = data.geom_xpos[g, 0], data.geom_xpos[g, 1]
+    gtype = model.geom_type[g]
+    size = model.geom_size[g]
+    upright = abs(rot[2, 2]) > 0.999
+    if upright and gtype == mujoco.mjtGeom.mjGEOM_BOX:
+        # point in the box frame (rotation about z only), then distance to the rectangle
+        lx = rot[0, 0] * (px - cx) + rot[1, 0] * (py - cy)
+        ly = rot[0, 1] * (px - cx) + rot[1, 1] * (py - cy)
+        dx = np.maximum(np.abs(lx) - size[0], 0.0)
+        dy = np.maximum(np.abs(ly) - size[1], 0.0)
+        return np.hypot(dx, dy)
+    round_types = (mujoco.mjtGeom.mjGEOM_CYLINDER, mujoco.mjtGeom.mjGEOM_CAPSULE)
+    if gtype == mujoco.mjtGeom.mjGEOM_SPHERE or (upright and gtype in round_types):
+        return np.maximum(np.hypot(px - cx, py - cy) - size[0], 0.0)
+    dx = np.maximum(np.maximum(aabb[0, 0] - px, px - aabb[0, 1]), 0.0)
+    dy = np.maximum(np.maximum(aabb[1, 0] - py, py - aabb[1, 1]), 0.0)
+    return np.hypot(dx, dy)
+
+
+class GridPlanner:
+    """A* on an :class:`OccupancyGrid` with line-of-sight shortcutting."""
+
+    def __init__(self, grid: OccupancyGrid) -> None:
+        self.grid = grid
+
+    @classmethod
+    def for_model(
+        cls,
+        model: mujoco.MjModel,
+        *,
+        radius: float,
+        resolution: float = 0.1,
+        z_band: tuple[float, float] = (0.02, 1.0),
+        bounds: tuple[float, float, float, float] | None = None,
+    ) -> GridPlanner:
+        return cls(
+            occupancy_grid(
+                model, radius=radius, resolution=resolution, z_band=z_band, bounds=bounds
+            )
+        )
+
+    def nearest_free(self, xy: Sequence[float]) -> np.ndarray:
+        """The free cell centre nearest to ``xy`` (``xy`` itself when it is free)."""
+        grid = self.grid
+        if grid.is_free(xy):
+            return np.asarray(xy[:2], dtype=float)
+        free = np.argwhere(~grid.blocked)
+        if free.size == 0:
+            raise ValueError("the occupancy grid has no free cell")
+        centers = np.asarray(grid.origin) + grid.resolution * free[:, ::-1]
+        return centers[np.argmin(np.hypot(*(centers - np.asarray(xy[:2])).T))]
+
+    def plan(self, start: Sequence[float], goal: Sequence[float]) -> list[np.ndarray]:
+        """Waypoints (after ``start``) of a collision-free path ending at or next to ``goal``.
+
+        A start inside an inflated obstacle is first moved to the nearest free cell. A goal
+        inside one (e.g. a jar on its stand) is replaced by the nearest free ring around it:
+        the path ends at the first cell of that ring it reaches, i.e. on the near side of the
+        jar. Raises ``ValueError`` when no path exists.
+        """
+        grid = self.grid
+        s_xy = self.nearest_free(start)
+        g_xy = np.asarray(goal[:2], dtype=float)
+        if grid.is_free(g_xy):
+            if grid.segment_free(s_xy, g_xy):
+                return [g_xy]
+            ring = 0.0
+        else:
+            ring = float(np.hypot(*(self.nearest_free(g_xy) - g_xy))) + grid.resolution
+        cells = self._astar(grid.cell(s_xy), g_xy, ring)
+        end = g_xy if ring == 0.0 else grid.center(cells[-1])
+        points = [s_xy, *(grid.center(c) for c in cells[1:-1]), end]
+        return self._shortcut(points)[1:]
+
+    def _astar(
+        self, start: tuple[int, int], goal: np.ndarray, ring: float
+    ) -> list[tuple[int, int]]:
+        """Shortest 8-connected cell path from ``start`` to a free cell within ``ring`` (m) of
+        ``goal`` (the goal's own cell when ``ring`` is 0)."""
+        grid = self.grid
+        blocked = grid.blocked
+        ny, nx = blocked.shape
+        res = grid.resolution
+        gx = (goal[0] - grid.origin[0]) / res  # goal in (fractional) cell units
+        gy = (goal[1] - grid.origin[1]) / res
+        goal_cell = grid.cell(goal)
+        ring_cells = ring / res
+
+        def h(c: tuple[int, int]) -> float:  # admissible: straight-line distance to the ring
+            return max(0.0, math.hypot(c[0] - gy, c[1] - gx) - ring_cells)
+
+        def reached(c: tuple[int, int]) -> bool:
+            return c == goal_cell if ring == 0.0 else math.hypot(c[0] - gy, c[1] - gx) <= ring_cells
+
+        cost = {start: 0.0}
+        parent: dict[tuple[int, int], tuple[int, int]] = {}
+        frontier = [(h(start), 0.0, start)]
+        while frontier:
+            _, c_cost, cur = heapq.heappop(frontier)
+            if reached(cur):
+                path = [cur]
+                while cur in parent:
+                    cur = parent[cur]
+                    path.append(cur)
+                return path[::-1]
+            if c_cost > cost[cur]:
+                continue
+            i, j = cur
+            for di, dj, step in _NEIGHBOURS:
+                ni, nj = i + di, j + dj
+                if not (0 <= ni < ny and 0 <= nj < nx) or blocked[ni, nj]:
+                    continue
+                if di and dj and (blocked[i + di, j] or blocked[i, j + dj]):
+                    continue  # no corner cutting
+                n_cost = c_cost + step
+                if n_cost < cost.get((ni, nj), math.inf):
+                    cost[(ni, nj)] = n_cost
+                    parent[(ni, nj)] = cur
+                    heapq.heappush(frontier, (n_cost + h((ni, nj)), n_cost, (ni, nj)))
+        raise ValueError(f"no collision-free path from cell {start} to {tuple(goal)}")
+
+    def _shortcut(self, points: list[np.ndarray]) -> list[np.ndarray]:
+        """Greedy string pulling: from each kept point jump to the farthest visible one."""
+        out = [points[0]]
+        i = 0
+        while i < len(points) - 1:
+            j = len(points) - 1
+            while j > i + 1 and not self.grid.segment_free(points[i], points[j]):
+                j -= 1
+            out.append(points[j])
+            i = j
+        return out
+
+
+def path_length(start: Sequence[float], waypoints: Sequence[Sequence[float]]) -> float:
+    """Length (m) of the polyline start -> waypoints."""
+    pts = [start[:2], *(w[:2] for w in waypoints)]
+    return float(sum(math.dist(a, b) for a, b in itertools.pairwise(pts)))

@@ -1,0 +1,121 @@
+"""Robot registry: a name maps to an MJCF file, an adapter class and its constants.
+
+Built-ins are registered with lazy ``"module:Attr"`` strings, so importing the registry imports
+no robot module (they can be written, and fail, independently) and a task config can name a
+robot without importing it. ``register_robot`` adds user robots from their own files::
+
+    register_robot("mybot", "path/to/mybot.xml", "mypkg.mybot:MyBotAdapter", MyBotConstants())
+"""
+
+from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from maopg.sim.robots.base import (
+    ArmAdapter,
+    DroneAdapter,
+    GroundAdapter,
+    PlanarGroundAdapter,
+    RobotAdapter,
+)
+
+#: The repository's ``assets/`` folder (robots, props, arenas).
+ASSETS_DIR = Path(__file__).resolve().parents[3] / "assets"
+
+__all__ = [
+    "ASSETS_DIR",
+    "ArmAdapter",
+    "DroneAdapter",
+    "GroundAdapter",
+    "PlanarGroundAdapter",
+    "RobotAdapter",
+    "RobotSpec",
+    "get_robot",
+    "register_robot",
+    "robot_names",
+]
+
+
+def _resolve(ref: Any) -> Any:
+    """Import ``"package.module:Attr"`` lazily; any other value is returned as is."""
+    if not isinstance(ref, str):
+        return ref
+    module, sep, attr = ref.partition(":")
+    if not sep:
+        raise ValueError(f"expected 'package.module:Attr', got {ref!r}")
+    return getattr(importlib.import_module(module), attr)
+
+
+@dataclass(frozen=True)
+class RobotSpec:
+    """Everything needed to put one robot type in a scene."""
+
+    name: str
+    mjcf: Path
+    #: An adapter class, or ``"module:Class"`` imported on first use.
+    adapter: type[RobotAdapter] | str
+    #: A constants instance, a constants class (instantiated with defaults), ``"module:Attr"``
+    #: naming either, or None (the adapter's own default ``Constants()``).
+    constants: Any = None
+
+    def adapter_class(self) -> type[RobotAdapter]:
+        cls = _resolve(self.adapter)
+        if not (isinstance(cls, type) and issubclass(cls, RobotAdapter)):
+            raise TypeError(f"robot '{self.name}': {self.adapter!r} is not a RobotAdapter class")
+        return cls
+
+    def resolve_constants(self) -> Any:
+        value = _resolve(self.constants)
+        return value() if isinstance(value, type) else value
+
+
+_REGISTRY: dict[str, RobotSpec] = {}
+
+
+def register_robot(
+    name: str,
+    mjcf: str | Path,
+    adapter: type[RobotAdapter] | str,
+    constants: Any = None,
+    *,
+    overwrite: bool = False,
+) -> RobotSpec:
+    """Register a robot type; relative MJCF paths are taken relative to ``assets/``."""
+    if name in _REGISTRY and not overwrite:
+        raise ValueError(f"robot '{name}' is already registered (pass overwrite=True to replace)")
+    path = Path(mjcf)
+    if not path.is_absolute():
+        path = path if path.exists() else ASSETS_DIR / path
+    spec = RobotSpec(name=name, mjcf=path.resolve(), adapter=adapter, constants=constants)
+    _REGISTRY[name] = spec
+    return spec
+
+
+def get_robot(name: str) -> RobotSpec:
+    """The spec of a registered robot; an unknown name fails with the list of known ones."""
+    try:
+        return _REGISTRY[name]
+    except KeyError:
+        raise KeyError(
+            f"unknown robot '{name}'; known robots: {', '.join(robot_names())}"
+        ) from None
+
+
+def robot_names() -> list[str]:
+    return sorted(_REGISTRY)
+
+
+for _name, _cls, _consts in (
+    ("turtlebot", "TurtlebotAdapter", "TurtlebotConstants"),
+    ("fetch", "FetchAdapter", "FetchConstants"),
+    ("vehicle", "VehicleAdapter", "VehicleConstants"),
+    ("drone", "DroneAdapter", "DroneConstants"),
+    ("diffbot", "DiffbotAdapter", "DiffbotConstants"),
+):
+    _module = f"maopg.sim.robots.{_name}"
+    register_robot(
+        _name, ASSETS_DIR / "robots" / f"{_name}.xml", f"{_module}:{_cls}", f"{_module}:{_consts}"
+    )

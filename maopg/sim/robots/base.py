@@ -1,0 +1,262 @@
+"""Robot adapters: the only layer that knows a robot's joints, actuators and camera.
+
+Options and tasks talk to adapters (``drive_to``, ``set_arm_targets``, ...), never to raw
+``data.ctrl`` indices, so a robot can be swapped by pointing the registry at another MJCF and
+adapter. The low-level loops (velocity / PD servos) run inside MuJoCo's actuators, in C, at every
+physics step; ``apply()`` only refreshes their set-points once per tick (or at ``control_hz``),
+which keeps the option layer's Python overhead O(1) per tick.
+
+Conventions an adapter relies on:
+
+* every name in a robot MJCF is local (``base``, ``camera``); the scene attaches the robot with
+  the prefix ``"<prefix>/"``, so the adapter looks up ``f"{prefix}/{local}"``;
+* the scene rotates the attachment frame by the spawn yaw, so a planar base's slide joints are
+  expressed in that rotated frame; :class:`PlanarGroundAdapter` undoes it when commanding.
+"""
+
+from __future__ import annotations
+
+import math
+from abc import ABC, abstractmethod
+from collections.abc import Sequence
+from typing import Any, ClassVar
+
+import mujoco
+import numpy as np
+
+
+def wrap_angle(angle: float) -> float:
+    """Map an angle to [-pi, pi) so heading errors take the short way round."""
+    return (angle + math.pi) % (2.0 * math.pi) - math.pi
+
+
+class RobotAdapter(ABC):
+    """Binds one attached robot instance (its name prefix) inside a compiled scene."""
+
+    #: None: ``apply()`` runs once per ``Scene.advance`` call (one tick); else at this rate (Hz).
+    control_hz: ClassVar[float | None] = None
+    #: Local (unprefixed) name of the robot's root body in its MJCF.
+    root_body: ClassVar[str] = "base"
+    #: Local name of the robot's onboard camera.
+    camera: ClassVar[str] = "camera"
+    #: Frozen dataclass with this robot type's gains/speeds/sizes; instantiated when none is given.
+    Constants: ClassVar[type]
+
+    def __init__(
+        self, model: mujoco.MjModel, data: mujoco.MjData, prefix: str, constants: Any = None
+    ) -> None:
+        self.model = model
+        self.data = data
+        self.prefix = prefix
+        self.constants = constants if constants is not None else self.Constants()
+        self.root_body_id = self.object_id(mujoco.mjtObj.mjOBJ_BODY, self.root_body)
+        self.camera_name = self.name(self.camera)
+        self.camera_id = self.object_id(mujoco.mjtObj.mjOBJ_CAMERA, self.camera)
+        #: Seconds until the next ``apply()``; the scene sets it before every call.
+        self.control_dt = 1.0
+
+    # --- name resolution -------------------------------------------------------------------
+    def name(self, local: str) -> str:
+        """Full (prefixed) name of one of this robot's elements."""
+        return f"{self.prefix}/{local}"
+
+    def object_id(self, objtype: mujoco.mjtObj, local: str) -> int:
+        """Id of a prefixed element; a missing name fails with the robot and element named."""
+        full = self.name(local)
+        idx = mujoco.mj_name2id(self.model, objtype, full)
+        if idx < 0:
+            kind = objtype.name.removeprefix("mjOBJ_").lower()
+            raise KeyError(
+                f"{type(self).__name__} for '{self.prefix}': the model has no {kind} '{full}' "
+                f"(does the robot MJCF name it '{local}'?)"
+            )
+        return idx
+
+    def joint_qpos_adr(self, local: str) -> int:
+        return int(self.model.jnt_qposadr[self.object_id(mujoco.mjtObj.mjOBJ_JOINT, local)])
+
+    def joint_dof_adr(self, local: str) -> int:
+        return int(self.model.jnt_dofadr[self.object_id(mujoco.mjtObj.mjOBJ_JOINT, local)])
+
+    def actuator_id(self, local: str) -> int:
+        return self.object_id(mujoco.mjtObj.mjOBJ_ACTUATOR, local)
+
+    def set_position_gains(self, local: str, kp: float, kv: float) -> None:
+        """Write PD gains into a ``<position>`` actuator, so the constants are the one source."""
+        a = self.actuator_id(local)
+        self.model.actuator_gainprm[a, 0] = kp
+        self.model.actuator_biasprm[a, 1] = -kp
+        self.model.actuator_biasprm[a, 2] = -kv
+
+    def set_velocity_gain(self, local: str, kv: float) -> None:
+        """Write the gain of a ``<velocity>`` servo actuator (force = kv * (ctrl - qvel))."""
+        a = self.actuator_id(local)
+        self.model.actuator_gainprm[a, 0] = kv
+        self.model.actuator_biasprm[a, 2] = -kv
+
+    # --- state -----------------------------------------------------------------------------
+    @property
+    def position(self) -> np.ndarray:
+        """(3,) world position of the root body (a copy)."""
+        return self.data.xpos[self.root_body_id].copy()
+
+    @property
+    def yaw(self) -> float:
+        """Heading of the root body about world z (rad)."""
+        xmat = self.data.xmat[self.root_body_id]
+        return math.atan2(xmat[3], xmat[0])
+
+    # --- commands --------------------------------------------------------------------------
+    def set_initial_pose(self) -> None:
+        """Write this robot's start posture into ``data.qpos`` (default: the MJCF's).
+
+        ``Scene.reset`` calls it right after ``mj_resetData``. Override it rather than editing
+        ``model.qpos0``: MuJoCo measures hinge/slide angles from ``qpos0``, so changing it would
+        move the joints' zero.
+        """
+        return None
+
+    @abstractmethod
+    def reset(self) -> None:
+        """Forget any command and hold the current pose (called after ``Scene.reset``)."""
+
+    @abstractmethod
+    def hold(self) -> None:
+        """Command: stay where you are (used by idling agents)."""
+
+    @abstractmethod
+    def apply(self) -> None:
+        """Write ``data.ctrl`` for this robot from the current command."""
+
+
+class GroundAdapter(RobotAdapter):
+    """A robot that moves on the floor plane: turtlebot, vehicle, the swap-demo robot."""
+
+    @property
+    def max_speed(self) -> float:
+        return float(self.constants.max_speed)
+
+    @abstractmethod
+    def drive_to(self, xy: Sequence[float], speed: float | None = None) -> None:
+        """Drive toward a planar target at most at ``speed`` (default ``max_speed``)."""
+
+    @abstractmethod
+    def set_velocity(self, vx: float, vy: float) -> None:
+        """World-frame planar velocity command (m/s)."""
+
+    def at(self, xy: Sequence[float], tol: float) -> bool:
+        pos = self.data.xpos[self.root_body_id]
+        return math.hypot(pos[0] - xy[0], pos[1] - xy[1]) <= tol
+
+
+class DroneAdapter(RobotAdapter):
+    """A flying robot commanded by 3-D position targets."""
+
+    @abstractmethod
+    def fly_to(self, xyz: Sequence[float], speed: float | None = None) -> None: ...
+
+    def at(self, xyz: Sequence[float], tol: float) -> bool:
+        return float(np.linalg.norm(self.data.xpos[self.root_body_id] - np.asarray(xyz))) <= tol
+
+
+class ArmAdapter(RobotAdapter):
+    """A fixed-base manipulator with joint-space PD control, analytic IK and a gripper."""
+
+    @abstractmethod
+    def set_arm_targets(self, q: np.ndarray) -> None: ...
+
+    @abstractmethod
+    def set_gripper(self, closed: bool) -> None: ...
+
+    @abstractmethod
+    def joint_positions(self) -> np.ndarray: ...
+
+    @abstractmethod
+    def ik(self, xyz_world: Sequence[float], pitch: float = -math.pi / 2) -> np.ndarray:
+        """Joint targets that put the grasp site at ``xyz_world`` with the given tool pitch."""
+
+    @property
+    @abstractmethod
+    def grasp_site_position(self) -> np.ndarray: ...
+
+
+class PlanarGroundAdapter(GroundAdapter):
+    """Holonomic planar base: joints ``x``/``y`` (slide) and ``yaw`` (hinge) on the root body.
+
+    Actuators ``vx``/``vy`` are velocity servos and ``yaw`` a position (PD) servo; their gains
+    come from the constants (``kv``, ``yaw_kp``, ``yaw_kv``). ``drive_to`` commands, at each
+    ``apply()``, full speed toward the target while it is far, and in the last control period
+    the velocity that covers exactly the remaining distance. That velocity accounts for the
+    servo's first-order lag (time constant ``tau = mass / kv``): a period of length ``T``
+    starting at velocity ``v0`` under command ``v`` moves ``v (T - tau) + v0 tau``, so one
+    ``apply()`` per tick still arrives without overshoot. The heading follows the motion.
+    """
+
+    #: Below this commanded speed (m/s) the heading is kept, so the few-mm corrections after
+    #: arrival do not spin the robot round.
+    HEADING_MIN_SPEED: ClassVar[float] = 0.05
+
+    def __init__(
+        self, model: mujoco.MjModel, data: mujoco.MjData, prefix: str, constants: Any = None
+    ) -> None:
+        super().__init__(model, data, prefix, constants)
+        c = self.constants
+        self._ax, self._ay, self._ayaw = (self.actuator_id(n) for n in ("vx", "vy", "yaw"))
+        self.set_velocity_gain("vx", c.kv)
+        self.set_velocity_gain("vy", c.kv)
+        self.set_position_gains("yaw", c.yaw_kp, c.yaw_kv)
+        self._q_yaw = self.joint_qpos_adr("yaw")
+        self._v_x, self._v_y = self.joint_dof_adr("x"), self.joint_dof_adr("y")
+        self._tau = float(model.body_subtreemass[self.root_body_id]) / c.kv
+        # The slide axes live in the attachment frame (rotated by the spawn yaw): world->joint.
+        quat = model.body_quat[self.root_body_id]
+        yaw0 = math.atan2(
+            2.0 * (quat[0] * quat[3] + quat[1] * quat[2]), 1.0 - 2.0 * (quat[2] ** 2 + quat[3] ** 2)
+        )
+        self._cos0, self._sin0 = math.cos(yaw0), math.sin(yaw0)
+        self.reset()
+
+    def reset(self) -> None:
+        self._goal: tuple[float, float] | None = None
+        self._speed = self.max_speed
+        self._vel = (0.0, 0.0)
+        self._heading = self.yaw
+        self.hold()
+
+    def hold(self) -> None:
+        pos = self.data.xpos[self.root_body_id]
+        self.drive_to((pos[0], pos[1]))
+
+    def drive_to(self, xy: Sequence[float], speed: float | None = None) -> None:
+        self._goal = (float(xy[0]), float(xy[1]))
+        self._speed = self.max_speed if speed is None else min(float(speed), self.max_speed)
+
+    def set_velocity(self, vx: float, vy: float) -> None:
+        self._goal = None
+        speed = math.hypot(vx, vy)
+        scale = self.max_speed / speed if speed > self.max_speed else 1.0
+        self._vel = (vx * scale, vy * scale)
+
+    def apply(self) -> None:
+        c0, s0 = self._cos0, self._sin0
+        if self._goal is not None:
+            pos = self.data.xpos[self.root_body_id]
+            dx, dy = self._goal[0] - pos[0], self._goal[1] - pos[1]
+            qvel = self.data.qvel
+            jx, jy = qvel[self._v_x], qvel[self._v_y]
+            v0x, v0y = c0 * jx - s0 * jy, s0 * jx + c0 * jy  # current world velocity
+            tau = self._tau
+            span = max(self.control_dt - tau, tau)
+            vx, vy = (dx - v0x * tau) / span, (dy - v0y * tau) / span
+            if math.hypot(vx, vy) > self._speed:  # far away: cruise straight at the target
+                dist = math.hypot(dx, dy)
+                vx, vy = dx / dist * self._speed, dy / dist * self._speed
+        else:
+            vx, vy = self._vel
+        ctrl = self.data.ctrl
+        ctrl[self._ax] = c0 * vx + s0 * vy
+        ctrl[self._ay] = -s0 * vx + c0 * vy
+        if math.hypot(vx, vy) > self.HEADING_MIN_SPEED:
+            self._heading = math.atan2(vy, vx)
+        q_yaw = self.data.qpos[self._q_yaw]
+        ctrl[self._ayaw] = q_yaw + wrap_angle(self._heading - self.yaw)

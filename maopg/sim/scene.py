@@ -1,0 +1,289 @@
+"""Scene composition with ``mujoco.MjSpec``: an arena plus robots, compiled to one model.
+
+An arena MJCF holds the rooms, furniture and props (props may be pulled in with MJCF's
+``<attach model=...>``). :class:`SceneBuilder` attaches each robot at a spawn frame with the
+name prefix ``"<prefix>/"`` and declares the weld equalities that let a free body (a tool) be
+held by the world, a gripper or a basket; :class:`Scene` steps the physics and owns those welds.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from maopg.sim.robots import ASSETS_DIR, RobotAdapter, RobotSpec, get_robot
+
+WORLD = "world"
+
+
+class MJCFError(ValueError):
+    """An MJCF file failed to load or compile; the message names the file(s)."""
+
+
+def load_spec(path: str | Path) -> mujoco.MjSpec:
+    """Parse an MJCF file; relative paths are tried as given, then under ``assets/``."""
+    path = Path(path)
+    if not path.is_absolute() and not path.exists():
+        path = ASSETS_DIR / path
+    if not path.exists():
+        raise FileNotFoundError(f"MJCF file not found: {path}")
+    try:
+        return mujoco.MjSpec.from_file(str(path))
+    except ValueError as exc:  # MuJoCo reports parse errors as ValueError
+        raise MJCFError(f"{path}: MuJoCo could not load it: {exc}") from exc
+
+
+def weld_name(body: str, holder: str | None) -> str:
+    return f"weld:{body}@{WORLD if holder is None else holder}"
+
+
+def yaw_quat(yaw: float) -> list[float]:
+    return [math.cos(yaw / 2.0), 0.0, 0.0, math.sin(yaw / 2.0)]
+
+
+class SceneBuilder:
+    """Compose an arena, robots, props and attachable bodies into one compiled :class:`Scene`."""
+
+    def __init__(
+        self,
+        arena: str | Path,
+        *,
+        timestep: float,
+        render_size: int = 64,
+        video_size: tuple[int, int] = (480, 640),
+    ) -> None:
+        self.arena = arena
+        self.spec = load_spec(arena)
+        self.spec.option.timestep = timestep
+        # Offscreen buffer large enough for every renderer the scene will be asked for.
+        self.spec.visual.global_.offwidth = max(render_size, video_size[1])
+        self.spec.visual.global_.offheight = max(render_size, video_size[0])
+        self._files: list[str] = [str(arena)]
+        self._robots: list[tuple[str, RobotSpec]] = []
+        self._welds: list[tuple[str, str | None, bool]] = []
+
+    def _attach(self, prefix: str, mjcf: str | Path, pos: Sequence[float], yaw: float) -> None:
+        if "/" in prefix or not prefix:
+            raise ValueError(f"prefix must be a non-empty name without '/', got {prefix!r}")
+        child = load_spec(mjcf)
+        frame = self.spec.worldbody.add_frame(pos=list(pos), quat=yaw_quat(yaw))
+        self.spec.attach(child, prefix=f"{prefix}/", frame=frame)
+        self._files.append(str(mjcf))
+
+    def add_robot(
+        self,
+        prefix: str,
+        robot: str | RobotSpec,
+        pos: Sequence[float],
+        yaw: float = 0.0,
+    ) -> None:
+        """Attach a registered robot at ``pos`` with heading ``yaw``; its names get ``prefix/``."""
+        spec = get_robot(robot) if isinstance(robot, str) else robot
+        if any(p == prefix for p, _ in self._robots):
+            raise ValueError(f"robot prefix '{prefix}' is already used")
+        self._attach(prefix, spec.mjcf, pos, yaw)
+        self._robots.append((prefix, spec))
+
+    def add_prop(
+        self, prefix: str, mjcf: str | Path, pos: Sequence[float], yaw: float = 0.0
+    ) -> None:
+        """Attach a prop file (desk, jar, tool, ...) at a pose; its names get ``prefix/``."""
+        self._attach(prefix, mjcf, pos, yaw)
+
+    def add_attachable(self, body: str, holders: Sequence[str | None]) -> None:
+        """Declare welds between a free ``body`` and each holder body (None = the world).
+
+        The body starts held by ``holders[0]`` at its initial pose; :meth:`Scene.attach`
+        switches holders. A body that is always held needs no contacts and never drifts.
+        """
+        if not holders:
+            raise ValueError(f"{body}: give at least one holder")
+        for i, holder in enumerate(holders):
+            self._welds.append((body, holder, i == 0))
+
+    def build(self) -> Scene:
+        for body, holder, active in self._welds:
+            self.spec.add_equality(
+                type=mujoco.mjtEq.mjEQ_WELD,
+                objtype=mujoco.mjtObj.mjOBJ_BODY,
+                name=weld_name(body, holder),
+                name1=WORLD if holder is None else holder,
+                name2=body,
+                active=active,
+            )
+        try:
+            model = self.spec.compile()
+        except ValueError as exc:
+            raise MJCFError(
+                f"compiling the scene from {', '.join(self._files)} failed: {exc}"
+            ) from exc
+        return Scene(model, self._robots, [(b, h) for b, h, _ in self._welds])
+
+
+class Scene:
+    """A compiled scene: model, data, one adapter per robot, and the attach/detach welds."""
+
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        robots: Sequence[tuple[str, RobotSpec]],
+        welds: Sequence[tuple[str, str | None]],
+    ) -> None:
+        self.model = model
+        self.data = mujoco.MjData(model)
+        self.timestep = float(model.opt.timestep)
+        self._weld_id = {
+            (b, h): mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_EQUALITY, weld_name(b, h))
+            for b, h in welds
+        }
+        self._welds_of: dict[str, list[int]] = {}
+        for (b, _), eq in self._weld_id.items():
+            self._welds_of.setdefault(b, []).append(eq)
+        self._eq_data0 = model.eq_data.copy()
+        self._geom_rgba0 = model.geom_rgba.copy()
+        mujoco.mj_forward(model, self.data)
+        self.robots: dict[str, RobotAdapter] = {
+            prefix: spec.adapter_class()(model, self.data, prefix, spec.resolve_constants())
+            for prefix, spec in robots
+        }
+        self.reset()
+
+    # --- stepping ----------------------------------------------------------------------------
+    def reset(self) -> None:
+        """Deterministic initial state: qpos0, initial welds and colours, zero commands."""
+        self.model.eq_data[:] = self._eq_data0
+        self.model.geom_rgba[:] = self._geom_rgba0
+        mujoco.mj_resetData(self.model, self.data)
+        for robot in self.robots.values():
+            robot.set_initial_pose()
+        mujoco.mj_forward(self.model, self.data)
+        for robot in self.robots.values():
+            robot.reset()
+
+    def _schedule(self, seconds: float) -> tuple[int, int]:
+        """(physics steps in this advance, steps between control updates)."""
+        n = round(seconds / self.timestep)
+        if n < 1 or abs(n * self.timestep - seconds) > 1e-6 * max(1.0, seconds):
+            raise ValueError(
+                f"advance({seconds}) is not a multiple of the timestep {self.timestep}"
+            )
+        chunk = n
+        for robot in self.robots.values():
+            if robot.control_hz is not None:
+                chunk = math.gcd(chunk, max(1, round(1.0 / (robot.control_hz * self.timestep))))
+        return n, chunk
+
+    def advance(self, seconds: float) -> None:
+        """Step the physics ``seconds`` forward, refreshing every robot's actuator set-points.
+
+        Robots with ``control_hz=None`` get one ``apply()`` per call (their servos run in
+        MuJoCo's actuators), so the common case is a single ``mj_step(nstep=n)`` call. After
+        ``mj_step`` the position-derived fields (``xpos``, ``site_xpos``, ...) still describe the
+        state one step earlier; the closing ``mj_forward`` makes everything a task observes or
+        renders describe the current state (and keeps ``drive_to``'s arrival exact).
+        """
+        n, chunk = self._schedule(seconds)
+        model, data = self.model, self.data
+        if chunk == n:
+            for robot in self.robots.values():
+                robot.control_dt = seconds
+                robot.apply()
+            mujoco.mj_step(model, data, nstep=n)
+            mujoco.mj_forward(model, data)
+            return
+        for start in range(0, n, chunk):
+            if start:
+                mujoco.mj_kinematics(model, data)  # fresh poses for the controllers
+            for robot in self.robots.values():
+                if robot.control_hz is None:
+                    if start == 0:
+                        robot.control_dt = seconds
+                        robot.apply()
+                else:
+                    period = max(1, round(1.0 / (robot.control_hz * self.timestep)))
+                    if start % period == 0:
+                        robot.control_dt = period * self.timestep
+                        robot.apply()
+            mujoco.mj_step(model, data, nstep=chunk)
+        mujoco.mj_forward(model, data)
+
+    # --- welds ---------------------------------------------------------------------------------
+    def attach(self, body: str, holder: str | None) -> None:
+        """Hold ``body`` by ``holder`` (None = world) at their CURRENT relative pose (no jump).
+
+        Deactivates the body's other welds. The weld stores the body's pose in the holder's
+        frame (``eq_data[3:10]``, MuJoCo's ``relpose``), computed from fresh kinematics.
+        """
+        try:
+            eq = self._weld_id[(body, holder)]
+        except KeyError:
+            known = sorted(str(h) for b, h in self._weld_id if b == body)
+            raise KeyError(
+                f"no weld declared between '{body}' and holder {holder!r} (declared: {known})"
+            ) from None
+        model, data = self.model, self.data
+        mujoco.mj_kinematics(model, data)
+        h = model.eq_obj1id[eq]
+        b = model.eq_obj2id[eq]
+        inv = np.empty(4)
+        mujoco.mju_negQuat(inv, data.xquat[h])
+        rel_pos = np.empty(3)
+        mujoco.mju_rotVecQuat(rel_pos, data.xpos[b] - data.xpos[h], inv)
+        rel_quat = np.empty(4)
+        mujoco.mju_mulQuat(rel_quat, inv, data.xquat[b])
+        for other in self._welds_of[body]:
+            data.eq_active[other] = 0
+        model.eq_data[eq, 0:3] = 0.0
+        model.eq_data[eq, 3:6] = rel_pos
+        model.eq_data[eq, 6:10] = rel_quat
+        data.eq_active[eq] = 1
+
+    def holder_of(self, body: str) -> str | None:
+        """The holder whose weld on ``body`` is active (None = world)."""
+        for (b, h), eq in self._weld_id.items():
+            if b == body and self.data.eq_active[eq]:
+                return h
+        raise ValueError(f"'{body}' is not held by anything")
+
+    def place(self, body: str, pos: Sequence[float], quat: Sequence[float] | None = None) -> None:
+        """Put a free body at a world pose at rest and weld it to the world there.
+
+        For hand-overs with no manipulator (e.g. the human taking a delivered tool).
+        """
+        bid = self._id(mujoco.mjtObj.mjOBJ_BODY, body)
+        jnt = self.model.body_jntadr[bid]
+        if jnt < 0 or self.model.jnt_type[jnt] != mujoco.mjtJoint.mjJNT_FREE:
+            raise ValueError(f"'{body}' has no free joint to place")
+        qadr, vadr = self.model.jnt_qposadr[jnt], self.model.jnt_dofadr[jnt]
+        self.data.qpos[qadr : qadr + 3] = pos
+        self.data.qpos[qadr + 3 : qadr + 7] = [1.0, 0.0, 0.0, 0.0] if quat is None else quat
+        self.data.qvel[vadr : vadr + 6] = 0.0
+        self.attach(body, None)
+
+    # --- queries and looks ---------------------------------------------------------------------
+    def _id(self, objtype: mujoco.mjtObj, name: str) -> int:
+        idx = mujoco.mj_name2id(self.model, objtype, name)
+        if idx < 0:
+            kind = objtype.name.removeprefix("mjOBJ_").lower()
+            raise KeyError(f"the scene has no {kind} named '{name}'")
+        return idx
+
+    def body_position(self, name: str) -> np.ndarray:
+        return self.data.xpos[self._id(mujoco.mjtObj.mjOBJ_BODY, name)].copy()
+
+    def site_position(self, name: str) -> np.ndarray:
+        return self.data.site_xpos[self._id(mujoco.mjtObj.mjOBJ_SITE, name)].copy()
+
+    def set_geom_rgba(self, name: str, rgba: Sequence[float]) -> None:
+        """Recolour a geom (e.g. a stage indicator); :meth:`reset` restores the MJCF colours."""
+        self.model.geom_rgba[self._id(mujoco.mjtObj.mjOBJ_GEOM, name)] = rgba
+
+    def state(self) -> dict[str, Any]:
+        """Copies of the physical state (qpos, qvel, act, time) for comparisons and logging."""
+        d = self.data
+        return {"qpos": d.qpos.copy(), "qvel": d.qvel.copy(), "act": d.act.copy(), "time": d.time}

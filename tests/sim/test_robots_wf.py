@@ -1,0 +1,185 @@
+"""Water Filling robots (vehicle, drone, diffbot) and the jar prop, in the real WF scene."""
+
+from __future__ import annotations
+
+# isort: off
+import maopg  # noqa: F401  (sets MUJOCO_GL=egl before mujoco is imported)
+# isort: on
+
+import math
+
+import numpy as np
+import pytest
+
+from maopg.sim.props import JarHandle, layout_sites
+from maopg.sim.render import CameraRenderer
+from maopg.sim.robots import ASSETS_DIR
+from maopg.sim.scene import Scene, SceneBuilder
+
+ARENA = ASSETS_DIR / "arenas" / "water_filling.xml"
+TIMESTEP = 0.005
+SITES = layout_sites(ARENA)
+
+
+def wf_scene(extra: tuple[str, str, tuple[float, float, float]] | None = None) -> Scene:
+    """The WF scene as the task composes it: arena, three jars, vehicle and drone."""
+    builder = SceneBuilder(ARENA, timestep=TIMESTEP)
+    for i in range(3):
+        builder.add_prop(f"jar{i}", "props/jar.xml", SITES[f"jar_{i}"])
+    builder.add_robot("vehicle", "vehicle", SITES["spawn_vehicle"])
+    builder.add_robot("drone", "drone", SITES["spawn_drone"])
+    if extra is not None:
+        builder.add_robot(*extra)
+    return builder.build()
+
+
+def run_until(scene: Scene, done, limit: float, dt: float = 0.05) -> float | None:
+    """Advance in ``dt`` steps until ``done()``; the elapsed time, or None after ``limit``."""
+    t = 0.0
+    while t < limit:
+        scene.advance(dt)
+        t += dt
+        if done():
+            return t
+    return None
+
+
+def test_vehicle_reaches_waypoint_3m_away_at_half_a_metre_per_second() -> None:
+    scene = wf_scene()
+    vehicle = scene.robots["vehicle"]
+    start = vehicle.position
+    goal = (start[0] + 3.0, start[1])
+    vehicle.drive_to(goal)
+    speeds = []
+    last = start.copy()
+
+    def arrived() -> bool:
+        nonlocal last
+        pos = vehicle.position
+        speeds.append(np.linalg.norm(pos[:2] - last[:2]) / 0.05)
+        last = pos
+        return vehicle.at(goal, 0.05)
+
+    t = run_until(scene, arrived, limit=10.0)
+    assert t is not None, f"vehicle stuck at {vehicle.position}"
+    assert 5.9 <= t <= 7.0, f"3 m took {t:.2f} s (0.5 m/s -> 6 s)"
+    cruise = np.median(speeds[20:100])
+    assert cruise == pytest.approx(0.5, abs=0.02)
+    scene.advance(2.0)  # it stays there
+    assert vehicle.at(goal, 0.05)
+
+
+def test_drone_takes_off_holds_altitude_and_flies_5m_at_2mps() -> None:
+    scene = wf_scene()
+    drone = scene.robots["drone"]
+    ground = drone.position
+    assert ground[2] < 0.15  # starts on its skids
+    cruise_z = 1.5
+    drone.fly_to((ground[0], ground[1], cruise_z))
+    t_up = run_until(scene, lambda: abs(drone.position[2] - cruise_z) < 0.02, limit=4.0)
+    assert t_up is not None, f"did not climb: {drone.position}"
+    alt_err = []
+    run_until(scene, lambda: alt_err.append(abs(drone.position[2] - cruise_z)) and False, 3.0)
+    assert max(alt_err) < 0.05
+
+    start = drone.position
+    goal = start + np.array([-4.0, 3.0, 0.0])  # 5 m, over the north-west partition
+    drone.fly_to(goal)
+    speeds, alt_err = [], []
+
+    def arrived() -> bool:
+        speeds.append(float(np.linalg.norm(drone.velocity[:2])))
+        alt_err.append(abs(drone.position[2] - cruise_z))
+        return drone.at(goal, 0.1)
+
+    t = run_until(scene, arrived, limit=6.0)
+    assert t is not None, f"drone did not arrive: {drone.position}"
+    assert t <= 5.0 / 2.0 + 1.0, f"5 m took {t:.2f} s"
+    assert np.median(speeds[len(speeds) // 3 : 2 * len(speeds) // 3]) == pytest.approx(
+        2.0, abs=0.15
+    )
+    assert max(speeds) < 2.3
+    assert max(alt_err) < 0.05
+    # it really flies: it must tilt to accelerate (a sliding body would stay level)
+    scene.advance(1.0)
+    assert drone.at(goal, 0.05)
+
+
+def test_drone_turns_to_a_commanded_yaw_while_hovering() -> None:
+    scene = wf_scene()
+    drone = scene.robots["drone"]
+    p = drone.position
+    drone.fly_to((p[0], p[1], 1.2), yaw=math.pi / 2)
+    scene.advance(4.0)
+    assert abs(drone.yaw - math.pi / 2) < 0.05
+    assert drone.at((p[0], p[1], 1.2), 0.05)
+
+
+def test_drone_tilts_to_move() -> None:
+    scene = wf_scene()
+    drone = scene.robots["drone"]
+    p = drone.position
+    drone.fly_to((p[0], p[1], 1.2))
+    scene.advance(2.0)
+    drone.fly_to((p[0] + 3.0, p[1], 1.2))
+    scene.advance(0.5)
+    zaxis = scene.data.xmat[drone.root_body_id].reshape(3, 3)[:, 2]
+    assert zaxis[0] > 0.1, "accelerating toward +x needs the thrust axis tilted toward +x"
+
+
+def test_diffbot_rolls_to_a_waypoint_3m_away() -> None:
+    scene = wf_scene(extra=("diff", "diffbot", (-1.0, 0.5, 0.0)))
+    bot = scene.robots["diff"]
+    goal = (2.0, 0.5)
+    bot.drive_to(goal)
+    t = run_until(scene, lambda: bot.at(goal, 0.08), limit=10.0)
+    assert t is not None, f"diffbot stuck at {bot.position}"
+    assert t <= 3.0 / 0.55 + 1.5, f"3 m took {t:.2f} s"
+    wheel = scene.model.joint("diff/wheel_left")
+    # motion came from the wheels: ~3 m / 0.06 m radius of rolling
+    assert scene.data.qpos[wheel.qposadr[0]] == pytest.approx(3.0 / 0.06, rel=0.1)
+    # a target behind it: it turns round and gets there too
+    bot.drive_to((1.0, -0.5))
+    assert run_until(scene, lambda: bot.at((1.0, -0.5), 0.08), limit=8.0) is not None
+
+
+def test_jar_liquid_level_is_visible_from_the_drone_camera() -> None:
+    scene = wf_scene()
+    drone = scene.robots["drone"]
+    jar = SITES["jar_1"]
+    spot = jar[:2] + 0.95 * np.array([-math.sqrt(0.5), -math.sqrt(0.5)])
+    drone.fly_to((spot[0], spot[1], 1.15), yaw=math.pi / 4)  # face the jar
+    run_until(scene, lambda: drone.at((spot[0], spot[1], 1.15), 0.03), limit=8.0)
+    handle = JarHandle(scene.model, "jar1", scene.data)
+    with CameraRenderer(scene.model, 64, 64) as renderer:
+        handle.set_level(1.0)
+        full = renderer.render(scene.data, [drone.camera_name])[0].astype(int)
+        handle.set_level(0.2)
+        low = renderer.render(scene.data, [drone.camera_name])[0].astype(int)
+    assert handle.level == pytest.approx(0.2)
+
+    def yellow(img: np.ndarray) -> int:
+        """Liquid-coloured pixels: strongly yellow, unlike the brown floor and the grey walls."""
+        r, g, b = img[..., 0], img[..., 1], img[..., 2]
+        return int(np.sum((r - b > 80) & (g - b > 50)))
+
+    changed = np.abs(full - low).sum(axis=-1) > 60
+    assert changed.sum() >= 20, f"only {changed.sum()} pixels changed"
+    assert yellow(full) >= 2 * yellow(low) + 10, (yellow(full), yellow(low))
+
+
+def test_jar_level_geometry_follows_level_and_clips() -> None:
+    scene = wf_scene()
+    handle = JarHandle(scene.model, "jar0", scene.data)
+    g = handle.geom_id
+    full_top = scene.model.geom_pos[g, 2] + scene.model.geom_size[g, 1]
+    bottom = scene.model.geom_pos[g, 2] - scene.model.geom_size[g, 1]
+    handle.set_level(0.5)
+    assert scene.model.geom_pos[g, 2] - scene.model.geom_size[g, 1] == pytest.approx(bottom)
+    assert scene.model.geom_size[g, 1] * 2 == pytest.approx((full_top - bottom) / 2)
+    handle.set_level(-3.0)
+    assert handle.level == 0.0 and scene.model.geom_size[g, 1] > 0
+    handle.set_level(7.0)
+    assert scene.model.geom_pos[g, 2] + scene.model.geom_size[g, 1] == pytest.approx(full_top)
+    with pytest.raises(KeyError, match="nojar/liquid"):
+        JarHandle(scene.model, "nojar")
