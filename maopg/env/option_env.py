@@ -11,7 +11,7 @@ only for the agents that need a fresh image.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -67,6 +67,7 @@ class OptionEnv:
         self._images = np.zeros((n, size, size, 3), np.uint8) if task.config.images else None
         self._episode_return = 0.0
         self._needs_reset = True
+        self._tick_listeners: list[Callable[[OptionEnv, float], None]] = []
 
     # ------------------------------------------------------------------ public API
     @property
@@ -109,6 +110,8 @@ class OptionEnv:
                 else:
                     ex.option.step(task, ex)
             reward = task.tick()
+            for listener in self._tick_listeners:
+                listener(self, reward)
             total += reward
             discounted += discount * reward
             discount *= self.gamma
@@ -131,6 +134,20 @@ class OptionEnv:
             self._needs_reset = True
         self._refresh(self._choosing)
         return self._point(total, discounted, k, terminated, truncated)
+
+    def add_tick_listener(self, listener: Callable[[OptionEnv, float], None]) -> None:
+        """Call ``listener(env, reward)`` after every tick (videos, tick-level logging, tests).
+
+        Between decision points this is the only window on the low-level time scale.
+        """
+        self._tick_listeners.append(listener)
+
+    def running_option_names(self) -> tuple[str, ...]:
+        """Name of the option each agent executes now (``idle`` under ``all``, ``-`` at reset)."""
+        return tuple(
+            "idle" if self._idle[i] else ("-" if ex is None else ex.option.name)
+            for i, ex in enumerate(self._executions)
+        )
 
     def action_masks(self) -> tuple[np.ndarray, ...]:
         """Availability of every option of every agent in the current state."""
@@ -159,8 +176,9 @@ class OptionEnv:
             return True
         # Strategy.ALL: finished agents idle (hold position) until everyone has finished.
         self._idle |= ended
-        self._choosing[:] = self._idle.all()
-        return bool(self._choosing[0])
+        everyone = bool(self._idle.all())
+        self._choosing[:] = everyone
+        return everyone
 
     def _refresh(self, agents: np.ndarray) -> None:
         idx = np.flatnonzero(agents)

@@ -50,7 +50,7 @@ class Config(TaskConfig):
 
     max_ticks: int = 150
     tick_seconds: float = 1.0
-    timestep: float = 0.01
+    timestep: float = 0.02  # stable for the servos and welds; 50 physics steps per tick
     turtlebot_robot: str = "turtlebot"
     fetch_robot: str = "fetch"
     human_stage_ticks: int = 18
@@ -306,11 +306,12 @@ class ToolDelivery(SceneTask):
         s.received[:] = [False, False]
         self.scene.advance(c.tick_seconds)
         self._ticks += 1
-        reward = c.step_reward
+        # The Fetch's activity is judged on the state at the start of the tick (readiness for
+        # a pass means having waited at the spot through the previous tick).
+        reward = c.step_reward + self._advance_activity()
         for w in (T0, T1):
             s.at_desk[w] = s.getting_tool[w] and self._at(w, DESK_SPOTS[w])
             s.at_desk_ticks[w] += s.at_desk[w]
-        reward += self._advance_activity()
         reward += self._deliver()
         self._advance_human()
         return reward
@@ -343,8 +344,7 @@ class ToolDelivery(SceneTask):
         self.abort_activity()
         duration = {"wait": 1, "pass": c.pass_ticks, "search": c.search_ticks}[kind]
         activity = Activity(kind, arg, duration)
-        if kind == "pass":
-            activity.ok = self.ready_for_pass(arg)
+        if kind == "pass":  # whether it fails is known at its first tick (_advance_activity)
             activity.tool = s.staged[0] if s.staged else -1
         elif kind == "search":  # searching a found tool, or with the desk full, finds nothing
             activity.ok = not s.found[arg] and len(s.staged) < c.max_staged
@@ -412,8 +412,11 @@ class ToolDelivery(SceneTask):
         if a is None:
             return 0.0
         reward = 0.0
-        if a.kind == "pass" and a.progress == 0 and not a.ok:
-            reward += c.failed_pass_reward  # nobody ready to take it when the pass started
+        if a.kind == "pass" and a.progress == 0:
+            # Judged once every agent has started this tick's options, so a Turtlebot that
+            # re-chooses GetTool at the same decision point still counts as waiting.
+            a.ok = self.ready_for_pass(a.arg)
+            reward += 0.0 if a.ok else c.failed_pass_reward
         elif a.kind == "pass" and a.ok and not s.getting_tool[a.arg]:
             a.ok = False  # the Turtlebot stopped waiting before the pass ended
             reward += c.failed_pass_reward

@@ -1,0 +1,179 @@
+"""Rollout storage: option steps of ``E`` environments stepped in lockstep, as a ``[S, E]`` grid.
+
+Row ``s`` holds, for every environment, the decision point ``z`` the policy acted on, the
+condition (``choosing``, ``running``, ``available``), the sampled joint option with its
+conditional log-probability, the critic's (normalised) value, and the outcome reported at the
+next decision point: summed and discounted reward, duration ``k`` in ticks, terminated /
+truncated. Because every environment takes one option step per row, the grid is regular even
+though the rows cover different numbers of ticks in different environments.
+
+:meth:`Rollout.training_batch` turns the grid into the flat :class:`TrainBatch` the PPO update
+consumes (advantages by :func:`~maopg.learner.gae.compute_gae`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import torch
+from torch import Tensor
+
+from maopg.learner.gae import DiscountForm, compute_gae
+from maopg.learner.value_norm import ValueNorm
+from maopg.policy import ObsBatch
+
+
+@dataclass
+class TrainBatch:
+    """Flat decision-point samples for one PPO update (rows = option steps)."""
+
+    obs: ObsBatch
+    choosing: Tensor
+    """``bool [B, N]``."""
+    running: Tensor
+    """``int64 [B, N]``."""
+    available: Tensor
+    """``bool [B, ΣK_i]``."""
+    joint: Tensor
+    """``int64 [B, N]`` the joint option executed (``running`` for continuing agents)."""
+    old_log_prob: Tensor
+    """``float32 [B]`` conditional log-probability at sampling time."""
+    old_value: Tensor
+    """``float32 [B]`` critic output at sampling time (normalised space when value-norm is on)."""
+    returns: Tensor
+    """``float32 [B]`` value targets ``A + V`` in return units."""
+    advantages: Tensor
+    """``float32 [B]`` GAE advantages (not yet normalised)."""
+
+    def __len__(self) -> int:
+        return self.old_log_prob.shape[0]
+
+    def rows(self, index: Tensor) -> TrainBatch:
+        """The minibatch ``index`` (a 1-D index tensor)."""
+        return TrainBatch(
+            obs=self.obs[index],
+            choosing=self.choosing[index],
+            running=self.running[index],
+            available=self.available[index],
+            joint=self.joint[index],
+            old_log_prob=self.old_log_prob[index],
+            old_value=self.old_value[index],
+            returns=self.returns[index],
+            advantages=self.advantages[index],
+        )
+
+
+@dataclass
+class Rollout:
+    """A ``[S, E]`` grid of option steps, filled row by row by the sampler."""
+
+    num_envs: int
+    obs: list[ObsBatch] = field(default_factory=list)
+    choosing: list[Tensor] = field(default_factory=list)
+    running: list[Tensor] = field(default_factory=list)
+    available: list[Tensor] = field(default_factory=list)
+    joint: list[Tensor] = field(default_factory=list)
+    log_prob: list[Tensor] = field(default_factory=list)
+    value: list[Tensor] = field(default_factory=list)
+    """Critic outputs ``[E]`` per row, in the critic's (normalised) space."""
+    next_value: list[Tensor] = field(default_factory=list)
+    """``V(z_{t+1})`` ``[E]`` per row, critic space; filled in by the sampler after the step."""
+    reward_sum: list[np.ndarray] = field(default_factory=list)
+    reward_discounted: list[np.ndarray] = field(default_factory=list)
+    duration: list[np.ndarray] = field(default_factory=list)
+    terminated: list[np.ndarray] = field(default_factory=list)
+    truncated: list[np.ndarray] = field(default_factory=list)
+    episodes: list[dict[str, Any]] = field(default_factory=list)
+    """``info["episode"]`` of every episode that ended inside this rollout, in order."""
+
+    def add(
+        self,
+        *,
+        obs: ObsBatch,
+        choosing: Tensor,
+        running: Tensor,
+        available: Tensor,
+        joint: Tensor,
+        log_prob: Tensor,
+        value: Tensor,
+        reward_sum: np.ndarray,
+        reward_discounted: np.ndarray,
+        duration: np.ndarray,
+        terminated: np.ndarray,
+        truncated: np.ndarray,
+        next_value: Tensor,
+    ) -> None:
+        """Append one row (one option step of every environment)."""
+        self.obs.append(obs)
+        self.choosing.append(choosing)
+        self.running.append(running)
+        self.available.append(available)
+        self.joint.append(joint)
+        self.log_prob.append(log_prob)
+        self.value.append(value)
+        self.reward_sum.append(np.asarray(reward_sum, dtype=np.float64))
+        self.reward_discounted.append(np.asarray(reward_discounted, dtype=np.float64))
+        self.duration.append(np.asarray(duration, dtype=np.int64))
+        self.terminated.append(np.asarray(terminated, dtype=bool))
+        self.truncated.append(np.asarray(truncated, dtype=bool))
+        self.next_value.append(next_value)
+
+    @property
+    def num_steps(self) -> int:
+        return len(self.obs)
+
+    @property
+    def ticks(self) -> int:
+        """Low-level samples in the rollout (the sum of all option durations)."""
+        return int(np.sum(self.duration)) if self.duration else 0
+
+    def grid(self, name: str) -> np.ndarray:
+        """A per-row field stacked as an ``[S, E]`` numpy array."""
+        rows = getattr(self, name)
+        return np.stack([r.numpy() if isinstance(r, Tensor) else r for r in rows])
+
+    def advantages(
+        self,
+        value_norm: ValueNorm | None,
+        *,
+        gamma: float,
+        lam: float,
+        form: DiscountForm | str,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(advantages, returns, values)``, each ``[S, E]`` in return units."""
+        values, next_values = self.grid("value"), self.grid("next_value")
+        if value_norm is not None:
+            values = value_norm.denormalize(torch.from_numpy(values).double()).numpy()
+            next_values = value_norm.denormalize(torch.from_numpy(next_values).double()).numpy()
+        done = self.grid("terminated") | self.grid("truncated")
+        continues = ~done
+        continues[-1] = False
+        advantages, returns = compute_gae(
+            values=values,
+            next_values=next_values,
+            reward_sum=self.grid("reward_sum"),
+            reward_discounted=self.grid("reward_discounted"),
+            durations=self.grid("duration"),
+            terminated=self.grid("terminated"),
+            continues=continues,
+            gamma=gamma,
+            lam=lam,
+            form=form,
+        )
+        return advantages, returns, values
+
+    def training_batch(self, advantages: np.ndarray, returns: np.ndarray) -> TrainBatch:
+        """Flatten the grid row-major (index ``s * E + e``) into a :class:`TrainBatch`."""
+        return TrainBatch(
+            obs=ObsBatch.cat(self.obs),
+            choosing=torch.cat(self.choosing),
+            running=torch.cat(self.running),
+            available=torch.cat(self.available),
+            joint=torch.cat(self.joint),
+            old_log_prob=torch.cat(self.log_prob).float(),
+            old_value=torch.cat(self.value).float(),
+            returns=torch.from_numpy(returns.reshape(-1)).float(),
+            advantages=torch.from_numpy(advantages.reshape(-1)).float(),
+        )

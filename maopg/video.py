@@ -1,0 +1,321 @@
+"""Headless rollout videos: the overview camera, every robot's camera, and what is going on.
+
+One frame per **tick** (low-level step), composed as::
+
+    +----------------------------+-----------------+
+    |  overview camera (480x640) |  tick, reward,  |
+    |                            |  task state     |
+    +---------+---------+--------+-----------------+
+    | robot 0: option | robot 1: option | ...      |   <- caption: agent and current option
+    | camera (upscaled observation)  ...           |
+    +----------------------------------------------+
+
+The robots' tiles show each camera at the observation resolution (``task.config.image_size``)
+upscaled with nearest-neighbour, i.e. exactly the pixels an image-based policy sees; a caption
+turns yellow on the tick an agent starts a new option.
+
+The option environment only returns at decision points, so per-tick frames come from
+:class:`_TickTap`, a thin delegating wrapper around the task whose ``tick()`` calls back after
+every tick; :func:`record_episode` runs the episode through a second :class:`OptionEnv` over the
+tapped task (the caller's environment is not modified). Everything is deterministic given the
+seed: physics, policy (if seeded) and rendering.
+
+    python -m maopg.video --task tool_delivery --policy scripted --out out/td_scripted.mp4
+"""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, cast
+
+import numpy as np
+from PIL import Image, ImageDraw, ImageFont
+
+import maopg  # noqa: F401  (sets MUJOCO_GL=egl before mujoco is imported)
+from maopg.env import DecisionPoint, OptionEnv, make_env
+from maopg.rollout import RandomPolicy, ReferencePolicy, scripted_policy
+from maopg.sim.render import CameraRenderer, VideoRenderer
+from maopg.tasks.base import SceneTask, Task
+
+OVERVIEW_SIZE = (480, 640)
+"""Height, width of the overview camera frame."""
+PANEL_WIDTH = 320
+TILE = 256
+"""Side of a robot's camera tile: 4x a 64 px observation."""
+CAPTION = 28
+GAP = 8
+BLOCK = 16
+"""H.264 encodes 16x16 macroblocks; frames are padded to multiples so the writer never resizes."""
+
+BACKGROUND = (24, 24, 28)
+TEXT = (235, 235, 235)
+DIM = (150, 150, 160)
+HIGHLIGHT = (255, 214, 64)
+
+
+# ----------------------------------------------------------------------------- task state text
+def _format_value(value: Any) -> str:
+    if isinstance(value, float):
+        return f"{value:.2f}"
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_format_value(v) for v in value) + "]"
+    if isinstance(value, np.ndarray):
+        return _format_value(value.tolist())
+    return str(value)
+
+
+def generic_state_lines(state: Mapping[str, Any]) -> list[str]:
+    """``key: value`` per entry of ``Task.describe()`` (floats to 2 decimals)."""
+    return [f"{key.replace('_', ' ')}: {_format_value(value)}" for key, value in state.items()]
+
+
+def tool_delivery_state_lines(state: Mapping[str, Any]) -> list[str]:
+    """Tool Delivery in words: which tool the human needs, where the tools are."""
+    stage = int(state["human_stage"])
+    delivered = list(state["delivered"])
+    needs = f"needs tool {stage}" if stage < len(delivered) else "all tools in"
+    carried = list(state["carried"])
+    return [
+        f"human stage {stage} ({needs})",
+        f"staged on desk: {_format_value(list(state['staged']))}",
+        *(f"turtlebot{w} carries: {_format_value(list(c))}" for w, c in enumerate(carried)),
+        "delivered: " + " ".join(f"t{j}={'yes' if d else 'no'}" for j, d in enumerate(delivered)),
+    ]
+
+
+STATE_FORMATTERS: dict[str, Callable[[Mapping[str, Any]], list[str]]] = {
+    "tool_delivery": tool_delivery_state_lines,
+}
+"""Task name -> formatter of its ``describe()`` dict; other tasks use :func:`generic_state_lines`."""
+
+
+def state_lines(task_name: str, state: Mapping[str, Any]) -> list[str]:
+    return STATE_FORMATTERS.get(task_name, generic_state_lines)(state)
+
+
+# ----------------------------------------------------------------------------- composition
+@dataclass(frozen=True)
+class Overlay:
+    """What is written on one frame."""
+
+    tick: int
+    reward: float
+    """Episode return so far (sum of tick rewards)."""
+    options: Sequence[str]
+    """Current option name of every agent ("-" before the first choice)."""
+    started: Sequence[bool]
+    """Agents that started their option on this frame's tick (drawn highlighted)."""
+    state: Sequence[str]
+    """Task state lines."""
+
+
+class FrameComposer:
+    """Renders and composes one video frame of a scene task (see the module docstring)."""
+
+    def __init__(
+        self,
+        task: SceneTask,
+        agent_names: Sequence[str],
+        *,
+        title: str = "",
+        max_ticks: int | None = None,
+        camera_px: int | None = None,
+    ) -> None:
+        self.task = task
+        self.agent_names = tuple(agent_names)
+        self.title = title
+        self.max_ticks = max_ticks
+        n = len(self.agent_names)
+        oh, ow = OVERVIEW_SIZE
+        self.width = _round_up(max(ow + PANEL_WIDTH, n * TILE + (n - 1) * GAP), BLOCK)
+        self.height = _round_up(oh + GAP + CAPTION + TILE, BLOCK)
+        px = camera_px or task.config.image_size
+        self._overview = VideoRenderer(task.scene.model, oh, ow, camera="overview")
+        self._cameras = CameraRenderer(task.scene.model, px, px)
+        self._camera_ids = [robot.camera_id for robot in task.agent_robots]
+        self._camera_buf = np.empty((n, px, px, 3), np.uint8)
+        self._font = ImageFont.load_default(size=18)
+        self._small = ImageFont.load_default(size=15)
+
+    @property
+    def shape(self) -> tuple[int, int, int]:
+        return (self.height, self.width, 3)
+
+    def compose(self, overlay: Overlay) -> np.ndarray:
+        """Render the current simulation state and draw ``overlay``: uint8 ``[H, W, 3]``."""
+        data = self.task.scene.data
+        canvas = Image.new("RGB", (self.width, self.height), BACKGROUND)
+        canvas.paste(Image.fromarray(self._overview.frame(data)), (0, 0))
+        self._cameras.render(data, self._camera_ids, out=self._camera_buf)
+        draw = ImageDraw.Draw(canvas)
+        self._draw_panel(draw, overlay)
+
+        n = len(self.agent_names)
+        row_width = n * TILE + (n - 1) * GAP
+        x0 = (self.width - row_width) // 2
+        y_caption = OVERVIEW_SIZE[0] + GAP
+        for i, name in enumerate(self.agent_names):
+            x = x0 + i * (TILE + GAP)
+            colour = HIGHLIGHT if overlay.started[i] else TEXT
+            caption = f"{name}: {overlay.options[i]}"
+            draw.text((x + 2, y_caption + 4), caption, fill=colour, font=self._small)
+            tile = Image.fromarray(self._camera_buf[i]).resize((TILE, TILE), Image.NEAREST)
+            canvas.paste(tile, (x, y_caption + CAPTION))
+        return np.asarray(canvas)
+
+    def _draw_panel(self, draw: ImageDraw.ImageDraw, overlay: Overlay) -> None:
+        x, y = OVERVIEW_SIZE[1] + 12, 12
+        limit = f" / {self.max_ticks}" if self.max_ticks else ""
+        head = [(self.title, DIM), (f"tick {overlay.tick}{limit}", TEXT)]
+        head.append((f"return {overlay.reward:+.1f}", TEXT))
+        for text, colour in head:
+            draw.text((x, y), text, fill=colour, font=self._font)
+            y += 26
+        y += 8
+        for line in overlay.state:
+            draw.text((x, y), line, fill=TEXT, font=self._small)
+            y += 21
+
+    def close(self) -> None:
+        self._overview.close()
+        self._cameras.close()
+
+
+def _round_up(value: int, block: int) -> int:
+    return -(-value // block) * block
+
+
+# ----------------------------------------------------------------------------- recording
+class _TickTap:
+    """Delegates every attribute to ``task`` and calls ``on_tick(reward)`` after each tick.
+
+    Composition, not patching: the wrapped task is untouched, and options, which receive the
+    wrapper as their ``task``, reach the real task's methods and state through ``__getattr__``.
+    """
+
+    def __init__(self, task: Task, on_tick: Callable[[float], None]) -> None:
+        self._task = task
+        self._on_tick = on_tick
+
+    def tick(self) -> float:
+        reward = self._task.tick()
+        self._on_tick(reward)
+        return reward
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._task, name)
+
+
+@dataclass
+class RecordedEpisode:
+    """What :func:`record_episode` wrote."""
+
+    path: Path
+    frames: int
+    shape: tuple[int, int, int]
+    ret: float
+    ticks: int
+    solved: bool
+
+
+def record_episode(
+    env: OptionEnv,
+    policy: ReferencePolicy,
+    path: str | Path,
+    *,
+    seed: int = 0,
+    fps: int = 4,
+    camera_px: int | None = None,
+) -> RecordedEpisode:
+    """Play one episode of ``env``'s task with ``policy`` and write it to ``path`` (MP4).
+
+    One frame at reset and one after every tick, so ``frames == ticks + 1``. ``policy`` maps a
+    :class:`DecisionPoint` to a joint option (a reference policy or :class:`eval` 's adapter
+    of a trained network). The task must be a :class:`SceneTask` with an ``overview`` camera.
+    """
+    import imageio.v2 as imageio
+
+    task = env.task
+    if not isinstance(task, SceneTask):
+        raise ValueError(f"task {task.name!r} has no scene to render (not a SceneTask)")
+    names = env.spec.agent_names
+    option_names = [a.option_names for a in env.spec.agents]
+    n = len(names)
+    composer = FrameComposer(
+        task,
+        names,
+        title=f"{task.name} | {env.strategy.value} | seed {seed}",
+        max_ticks=env.spec.max_ticks,
+        camera_px=camera_px,
+    )
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    options = ["-"] * n
+    started = np.zeros(n, dtype=bool)
+    total = [0.0]
+    writer = imageio.get_writer(path, fps=fps, codec="libx264", macro_block_size=BLOCK)
+    frames = [0]
+
+    def write(tick: int) -> None:
+        state = state_lines(task.name, task.describe())
+        overlay = Overlay(tick, total[0], list(options), started.tolist(), state)
+        writer.append_data(composer.compose(overlay))
+        frames[0] += 1
+
+    def on_tick(reward: float) -> None:
+        total[0] += reward
+        write(task.ticks)
+        started[:] = False
+
+    tapped = OptionEnv(cast(Task, _TickTap(task, on_tick)), env.strategy, gamma=env.gamma)
+    try:
+        point: DecisionPoint = tapped.reset(seed=seed)
+        write(0)
+        while not point.done:
+            joint = np.asarray(policy(point))
+            for i in np.flatnonzero(point.choosing):
+                options[i] = option_names[i][int(joint[i])]
+            started[:] = point.choosing
+            point = tapped.step(joint)
+    finally:
+        writer.close()
+        composer.close()
+    episode = point.info["episode"]
+    return RecordedEpisode(
+        path, frames[0], composer.shape, episode["return"], episode["ticks"], episode["solved"]
+    )
+
+
+# ----------------------------------------------------------------------------- command line
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(
+        prog="python -m maopg.video",
+        description="Record a headless MP4 of one episode driven by a reference policy.",
+    )
+    parser.add_argument("--task", default="tool_delivery")
+    parser.add_argument("--policy", choices=("scripted", "random"), default="scripted")
+    parser.add_argument("--strategy", default="continue")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--fps", type=int, default=4)
+    parser.add_argument("--out", type=Path, default=Path("out/video.mp4"))
+    args = parser.parse_args(argv)
+    env = make_env(args.task, args.strategy, seed=args.seed)
+    try:
+        if args.policy == "random":
+            policy: ReferencePolicy = RandomPolicy(env.spec, args.seed)
+        else:
+            policy = scripted_policy(args.task, env.spec)
+        result = record_episode(env, policy, args.out, seed=args.seed, fps=args.fps)
+    finally:
+        env.close()
+    print(
+        f"{result.path}: {result.frames} frames {result.shape[1]}x{result.shape[0]}, "
+        f"return {result.ret:.1f} in {result.ticks} ticks, solved {result.solved}"
+    )
+
+
+if __name__ == "__main__":
+    main()

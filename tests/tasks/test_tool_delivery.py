@@ -1,0 +1,183 @@
+"""Tool Delivery rules and reference returns, on the MuJoCo task (real physics)."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from maopg.env import make_env
+from maopg.rollout import RandomPolicy, evaluate_reference, run_episode, scripted_policy
+from maopg.tasks.tool_delivery import TOOL, WORKSHOP
+
+GO_WS, GO_TR, GET_TOOL = 0, 1, 2
+PASS0, PASS1, SEARCH0, SEARCH1, SEARCH2, WAIT = range(6)
+TRACE = Path(__file__).parents[3] / "shared" / "reference" / "tool_delivery_scripted_trace.csv"
+
+
+def new_env(strategy: str = "continue", **overrides):
+    return make_env("tool_delivery", strategy, overrides=overrides)
+
+
+def until_fetch_chooses(env, point, turtles=(GO_TR, GO_TR)):
+    """Keep the Turtlebots busy (re-choosing ``turtles``) until the Fetch's option ends."""
+    while not point.choosing[2] and not point.done:
+        point = env.step(np.where(point.choosing, [*turtles, -1], point.running))
+    return point
+
+
+def test_scripted_episode_matches_the_canonical_trace() -> None:
+    env = new_env()
+    ends: list[tuple[int, str, str]] = []
+
+    def on_step(point) -> None:
+        for i in np.flatnonzero(point.choosing):
+            if point.running[i] >= 0:
+                name = env.spec.agents[i].option_names[point.running[i]]
+                ends.append((point.ticks, env.spec.agent_names[i], name))
+
+    result = run_episode(env, scripted_policy("tool_delivery", env.spec), on_step=on_step)
+    assert result.solved and result.ret == 259.0 and result.ticks == 41
+    # Every option ending of the canonical scripted episode, within one tick (physics).
+    agents = {"T0": "turtlebot0", "T1": "turtlebot1", "Fetch": "fetch"}
+    with TRACE.open() as f:
+        rows = list(csv.DictReader(f))
+    for short, agent in agents.items():
+        ours = [(tick, name) for tick, a, name in ends if a == agent]
+        reference = [
+            (int(r["tick"]), r[f"{short}_running"]) for r in rows if r[f"{short}_done"] == "1"
+        ]
+        assert [n for _, n in ours] == [n for _, n in reference], agent
+        assert all(abs(t - rt) <= 1 for (t, _), (rt, _) in zip(ours, reference, strict=True))
+    # The tools really travelled: all three lie on the human's workbench.
+    bench = np.array(WORKSHOP) + [0.45, 0.0]
+    for j in range(3):
+        pos = env.task.scene.body_position(TOOL.format(j))
+        assert np.linalg.norm(pos[:2] - bench) < 0.5, (j, pos)
+    env.close()
+
+
+def test_a_pass_to_a_robot_that_is_not_waiting_costs_ten() -> None:
+    env = new_env()
+    env.reset()
+    point = until_fetch_chooses(env, env.step([GO_TR, GO_TR, SEARCH0]))
+    assert point.info["task"]["staged"] == [0]
+    rewards: list[float] = []
+    env.add_tick_listener(lambda _env, r: rewards.append(r))
+    point = env.step(np.where(point.choosing, [GO_TR, GO_TR, PASS0], point.running))
+    point = until_fetch_chooses(env, point)  # Turtlebot 0 was never at its desk spot
+    assert rewards[0] == -11.0 and len(rewards) == 4
+    assert point.info["task"]["staged"] == [0], "a failed pass hands nothing over"
+    env.close()
+
+
+def test_a_pass_fails_when_the_robot_stops_waiting_before_it_ends() -> None:
+    # Turtlebot 0 arrives at its spot on tick 5 and gives up after 10 ticks of waiting (tick
+    # 15); a pass started on tick 13 is still running then.
+    env = new_env()
+    env.reset()
+    point = until_fetch_chooses(env, env.step([GET_TOOL, GO_TR, SEARCH0]))
+    while point.ticks < 12:
+        joint = np.where(point.choosing, [GO_TR, GO_TR, WAIT], point.running)
+        point = until_fetch_chooses(env, env.step(joint))
+    rewards: list[float] = []
+    env.add_tick_listener(lambda _env, r: rewards.append(r))
+    point = env.step(np.where(point.choosing, [GO_TR, GO_TR, PASS0], point.running))
+    point = until_fetch_chooses(env, point)
+    assert point.ticks == 16 and rewards == [-1.0, -1.0, -1.0, -11.0]
+    assert point.info["task"]["carried"][0] == [] and point.info["task"]["staged"] == [0]
+
+    # Under `any`, a Turtlebot choosing to leave as the pass starts fails it at once; one that
+    # re-chooses GetTool keeps waiting and gets the tool.
+    for leave, expected in ((GO_WS, -11.0), (GET_TOOL, -1.0)):
+        env = new_env("any")
+        env.reset()
+        point = env.step([GET_TOOL, GET_TOOL, SEARCH0])  # the search ends first, on tick 6
+        assert point.ticks == 6 and point.info["task"]["staged"] == [0]
+        rewards.clear()
+        env.add_tick_listener(lambda _env, r: rewards.append(r))
+        point = env.step([leave, GET_TOOL, PASS0])
+        assert rewards[0] == expected
+    point = env.step([GET_TOOL, GET_TOOL, PASS0])  # GetTool of robot 1 ended: cut, re-choose
+    while point.info["task"]["carried"][0] != [0] and point.ticks < 20:
+        point = env.step([GET_TOOL, GET_TOOL, PASS0])
+    assert point.info["task"]["carried"][0] == [0]
+    env.close()
+
+
+def test_staging_respects_the_two_tool_limit_and_each_tool_is_found_once() -> None:
+    env = new_env()
+    env.reset()
+    point = until_fetch_chooses(env, env.step([GO_TR, GO_TR, SEARCH0]))
+    for search in (SEARCH1, SEARCH2, SEARCH0):
+        point = env.step(np.where(point.choosing, [GO_TR, GO_TR, search], point.running))
+        point = until_fetch_chooses(env, point)
+    task = point.info["task"]
+    assert task["staged"] == [0, 1]  # the third search found no room, the fourth a found tool
+    assert env.task.state.found == [True, True, False]
+    # Masking makes the same choices unavailable instead.
+    masked = new_env(mask_options=True)
+    point = masked.reset()
+    assert not point.available[2][PASS0]
+    point = until_fetch_chooses(masked, masked.step([GO_TR, GO_TR, SEARCH0]))
+    assert not point.available[2][SEARCH0] and point.available[2][PASS0]
+    env.close()
+    masked.close()
+
+
+def test_episode_ends_at_completion_or_at_150_ticks() -> None:
+    env = new_env()
+    result = run_episode(env, scripted_policy("tool_delivery", env.spec))
+    assert result.solved and result.ticks < 150
+    point = env.reset()
+    while not point.done:
+        point = env.step(np.where(point.choosing, [GO_TR, GO_TR, WAIT], -1))
+    assert point.truncated and not point.terminated and point.ticks == 150
+    assert point.info["episode"]["return"] == -150.0
+    env.close()
+
+
+def test_primitive_fetch_activities_complete_only_when_chosen_throughout() -> None:
+    env = new_env("primitive")
+    stay = env.spec.agents[0].option_names.index("Stay")
+    point = env.reset()
+    for _ in range(5):
+        point = env.step([stay, stay, SEARCH0])
+    point = env.step([stay, stay, WAIT])  # switched away on the last tick
+    assert point.info["task"]["staged"] == []
+    for _ in range(6):
+        point = env.step([stay, stay, SEARCH0])
+    assert point.info["task"]["staged"] == [0]
+    assert point.duration == 1 and point.choosing.all()
+    env.close()
+
+
+def test_primitive_moves_drive_point_six_metres_per_tick() -> None:
+    env = new_env("primitive")
+    east = env.spec.agents[0].option_names.index("East")
+    stay = env.spec.agents[0].option_names.index("Stay")
+    env.reset()
+    start = env.task.turtlebots[0].position
+    env.step([east, stay, WAIT])
+    moved = env.task.turtlebots[0].position - start
+    assert moved[0] == pytest.approx(0.6, abs=0.02) and abs(moved[1]) < 0.02
+    env.close()
+
+
+def test_reference_returns_over_ten_seeds() -> None:
+    scripted = evaluate_reference("tool_delivery", "scripted", episodes=10)
+    assert np.mean([r.ret for r in scripted]) >= 230
+    # Random: 10 seeds x 20 episodes (one episode's std is ~130, so 10 alone is too noisy).
+    returns = [
+        r.ret for seed in range(10) for r in evaluate_reference("tool_delivery", "random", 20, seed)
+    ]
+    assert -120 <= np.mean(returns) <= 0, np.mean(returns)
+
+
+def test_random_policy_is_reproducible() -> None:
+    env = new_env()
+    a = [run_episode(env, RandomPolicy(env.spec, 7), seed=11).rewards for _ in range(2)]
+    assert a[0] == a[1]
+    env.close()
