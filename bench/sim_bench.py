@@ -8,22 +8,18 @@ Filling (vehicle + drone + 3 jars). Renders use one reused renderer over every r
 from __future__ import annotations  # noqa: I001  (maopg must come before mujoco)
 
 import math
-import os
-import platform
 import sys
 import time
 from collections.abc import Callable
-from pathlib import Path
 
 import maopg  # noqa: F401  (sets MUJOCO_GL=egl before mujoco is imported)
 import mujoco
 import numpy as np
-import torch
 
-from maopg.sim.egl_check import check as gl_renderer
 from maopg.sim.render import CameraRenderer
 from maopg.sim.robots import ASSETS_DIR, get_robot, robot_names
 from maopg.sim.scene import Scene, SceneBuilder, load_spec
+from maopg.sysinfo import markdown
 
 TD_TIMESTEP, TD_TICK = 0.02, 1.0
 WF_TICK = 0.5
@@ -123,28 +119,13 @@ def camera_ms(scene: Scene, size: int, fast: bool, reps: int) -> float:
     return elapsed / (reps * len(cameras)) * 1e3
 
 
-def cpu_name() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown"
-
-
 def main() -> int:
     scenes = {"Tool Delivery": tool_delivery()}
     wf = water_filling()
     if wf is not None:
         scenes["Water Filling"] = wf
     print("### Simulation core (`bench/sim_bench.py`)\n")
-    print(
-        f"- machine: {cpu_name()}, {os.cpu_count()} CPUs, {platform.system()} "
-        f"{platform.release()}, Python {sys.version.split()[0]}"
-    )
-    print(f"- mujoco {mujoco.__version__}, torch {torch.__version__}, numpy {np.__version__}")
-    print(f"- GL: MUJOCO_GL={os.environ.get('MUJOCO_GL')}, renderer: {gl_renderer()}\n")
+    print(markdown() + "\n")
     print(
         "| scene | bodies/geoms/actuators | timestep | tick | mj_step (µs) | steps/s "
         "| bare tick (ms) | Scene.advance tick (ms) | option-layer overhead |"

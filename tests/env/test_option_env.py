@@ -9,7 +9,7 @@ from pettingzoo.test import parallel_api_test
 from maopg.env import DecisionPoint, OptionEnv, make_env
 from maopg.env.pettingzoo import OptionParallelEnv
 from maopg.rollout import RandomPolicy
-from maopg.tasks.tool_delivery import DESK_SPOTS, FETCH, TOOL_ROOM_WAIT, WORKSHOP
+from maopg.tasks.tool_delivery import FETCH, TOOL_ROOM_WAIT, WORKSHOP
 
 GAMMA = 0.95
 # Option durations of the Fetch in ticks (DESIGN §7); the Turtlebots' depend on distance.
@@ -156,9 +156,9 @@ def test_same_seed_same_trajectory() -> None:
 def test_bad_input_raises_value_errors_that_name_the_agent() -> None:
     env = make_env("tool_delivery", "continue", overrides={"mask_options": True})
     point = env.reset()
-    with pytest.raises(ValueError, match="turtlebot0.*must choose"):
+    with pytest.raises(ValueError, match=r"turtlebot0.*must choose"):
         env.step([-1, 0, 2])
-    with pytest.raises(ValueError, match="fetch.*out of range"):
+    with pytest.raises(ValueError, match=r"fetch.*out of range"):
         env.step([0, 0, 6])
     with pytest.raises(ValueError, match=r"PassTo\(0\).*fetch.*not available"):
         env.step([0, 0, 0])  # nothing is staged yet
@@ -166,7 +166,7 @@ def test_bad_input_raises_value_errors_that_name_the_agent() -> None:
         env.step([0, 0])
     point = env.step([2, 2, 2])  # both GetTool, SearchTool(0): the Fetch ends first
     assert list(point.choosing) == [False, False, True]
-    with pytest.raises(ValueError, match="turtlebot0.*is executing 'GetTool'"):
+    with pytest.raises(ValueError, match=r"turtlebot0.*is executing 'GetTool'"):
         env.step([0, 2, 5])
     point = env.step([-1, -1, 5])  # -1 for continuing agents is accepted
     while not point.done:  # GoToTR / Wait until the 150-tick limit

@@ -52,7 +52,7 @@ def test_scripted_episode_matches_the_canonical_trace() -> None:
         assert [n for _, n in ours] == [n for _, n in reference], agent
         assert all(abs(t - rt) <= 1 for (t, _), (rt, _) in zip(ours, reference, strict=True))
     # The tools really travelled: all three lie on the human's workbench.
-    bench = np.array(WORKSHOP) + [0.45, 0.0]
+    bench = np.add(WORKSHOP, (0.45, 0.0))
     for j in range(3):
         pos = env.task.scene.body_position(TOOL.format(j))
         assert np.linalg.norm(pos[:2] - bench) < 0.5, (j, pos)
