@@ -26,8 +26,9 @@ def test_a_robot_registered_from_a_file_is_used_by_name() -> None:
     diffbot = get_robot("diffbot")
     register_robot("my_ground_robot", diffbot.mjcf, diffbot.adapter, diffbot.constants)
     env = make_env("tool_delivery", overrides={"turtlebot_robot": "my_ground_robot"})
-    env.reset()
-    env.step([0, 0, 5])  # both drive toward the workshop, the Fetch waits
+    point = env.reset()
+    while point.ticks < 8:  # both drive toward the workshop, the Fetch waits
+        point = env.step(np.where(point.choosing, [0, 0, 5], point.running))
     assert env.spec.agents[1].robot == "my_ground_robot"
     assert env.task.turtlebots[1].position[0] > 3.2
     env.close()
