@@ -14,11 +14,9 @@ The robots' tiles show each camera at the observation resolution (``task.config.
 upscaled with nearest-neighbour, i.e. exactly the pixels an image-based policy sees; a caption
 turns yellow on the tick an agent starts a new option.
 
-The option environment only returns at decision points, so per-tick frames come from
-:class:`_TickTap`, a thin delegating wrapper around the task whose ``tick()`` calls back after
-every tick; :func:`record_episode` runs the episode through a second :class:`OptionEnv` over the
-tapped task (the caller's environment is not modified). Everything is deterministic given the
-seed: physics, policy (if seeded) and rendering.
+The option environment only returns at decision points, so per-tick frames come from its tick
+listener (:meth:`OptionEnv.add_tick_listener`), registered for the episode and removed after.
+Everything is deterministic given the seed: physics, policy (if seeded) and rendering.
 
     python -m maopg.video --task tool_delivery --policy scripted --out out/td_scripted.mp4
 """
@@ -29,7 +27,7 @@ import argparse
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, cast
+from typing import Any
 
 import numpy as np
 from PIL import Image, ImageDraw, ImageFont
@@ -38,7 +36,7 @@ import maopg  # noqa: F401  (sets MUJOCO_GL=egl before mujoco is imported)
 from maopg.env import DecisionPoint, OptionEnv, make_env
 from maopg.rollout import RandomPolicy, ReferencePolicy, scripted_policy
 from maopg.sim.render import CameraRenderer, VideoRenderer
-from maopg.tasks.base import SceneTask, Task
+from maopg.tasks.base import SceneTask
 
 OVERVIEW_SIZE = (480, 640)
 """Height, width of the overview camera frame."""
@@ -86,10 +84,23 @@ def tool_delivery_state_lines(state: Mapping[str, Any]) -> list[str]:
     ]
 
 
+def water_filling_state_lines(state: Mapping[str, Any]) -> list[str]:
+    """Water Filling: each jar's true level beside what the robots last saw, and when."""
+    jars = zip(state["levels"], state["known_levels"], state["elapsed"], strict=True)
+    return [
+        *(
+            f"jar {c}: level {level:.2f} (seen {known:.2f}, {int(ago)} ticks ago)"
+            for c, (level, known, ago) in enumerate(jars)
+        ),
+        f"fills: {state['fills']}",
+    ]
+
+
 STATE_FORMATTERS: dict[str, Callable[[Mapping[str, Any]], list[str]]] = {
     "tool_delivery": tool_delivery_state_lines,
+    "water_filling": water_filling_state_lines,
 }
-"""Task name -> formatter of its ``describe()`` dict; other tasks use :func:`generic_state_lines`."""
+"""Task name -> formatter of its ``describe()`` dict (others: :func:`generic_state_lines`)."""
 
 
 def state_lines(task_name: str, state: Mapping[str, Any]) -> list[str]:
@@ -189,26 +200,6 @@ def _round_up(value: int, block: int) -> int:
 
 
 # ----------------------------------------------------------------------------- recording
-class _TickTap:
-    """Delegates every attribute to ``task`` and calls ``on_tick(reward)`` after each tick.
-
-    Composition, not patching: the wrapped task is untouched, and options, which receive the
-    wrapper as their ``task``, reach the real task's methods and state through ``__getattr__``.
-    """
-
-    def __init__(self, task: Task, on_tick: Callable[[float], None]) -> None:
-        self._task = task
-        self._on_tick = on_tick
-
-    def tick(self) -> float:
-        reward = self._task.tick()
-        self._on_tick(reward)
-        return reward
-
-    def __getattr__(self, name: str) -> Any:
-        return getattr(self._task, name)
-
-
 @dataclass
 class RecordedEpisode:
     """What :func:`record_episode` wrote."""
@@ -265,22 +256,23 @@ def record_episode(
         writer.append_data(composer.compose(overlay))
         frames[0] += 1
 
-    def on_tick(reward: float) -> None:
+    def on_tick(_env: OptionEnv, reward: float) -> None:
         total[0] += reward
         write(task.ticks)
         started[:] = False
 
-    tapped = OptionEnv(cast(Task, _TickTap(task, on_tick)), env.strategy, gamma=env.gamma)
+    env.add_tick_listener(on_tick)
     try:
-        point: DecisionPoint = tapped.reset(seed=seed)
+        point: DecisionPoint = env.reset(seed=seed)
         write(0)
         while not point.done:
             joint = np.asarray(policy(point))
             for i in np.flatnonzero(point.choosing):
                 options[i] = option_names[i][int(joint[i])]
             started[:] = point.choosing
-            point = tapped.step(joint)
+            point = env.step(joint)
     finally:
+        env.remove_tick_listener(on_tick)
         writer.close()
         composer.close()
     episode = point.info["episode"]

@@ -142,6 +142,9 @@ class OptionEnv:
         """
         self._tick_listeners.append(listener)
 
+    def remove_tick_listener(self, listener: Callable[[OptionEnv, float], None]) -> None:
+        self._tick_listeners.remove(listener)
+
     def running_option_names(self) -> tuple[str, ...]:
         """Name of the option each agent executes now (``idle`` under ``all``, ``-`` at reset)."""
         return tuple(

@@ -63,15 +63,19 @@ class MacDQNConfig:
     (``--replay_buffer_size=1000``), about 30-60K decision points on Tool Delivery."""
     learning_starts: int = 1_000
     """Ticks collected before the first update. Chosen here (original: 2 episodes, ~300 ticks)."""
-    train_every: int = 30
-    """Ticks between updates: MacDeepMARL TD command ``--train_freq=30``."""
-    target_update_every: int = 5_000
-    """Ticks between target-network syncs: MacDeepMARL default ``--target_update_freq=5000``."""
+    train_every: int = 5
+    """Ticks between updates. Chosen here to keep MacDeepMARL's replay ratio: its TD command
+    (``--train_freq=30 --batch_size=16 --sample_epi``) replays 16 episodes of ~40 decision
+    points every 30 ticks (~20 transitions per tick); 64 rows every 5 ticks is ~13. With
+    ``recurrent`` (16 whole episodes per update) use the original 30."""
+    target_update_every: int = 1_000
+    """Ticks between target-network syncs. Chosen here: MacDeepMARL's default
+    ``--target_update_freq=5000`` spans ~170 of its updates; 1,000 ticks spans 200 of ours."""
     eps_start: float = 1.0
     """MacDeepMARL ``EPS_START``."""
     eps_end: float = 0.1
     """MacDeepMARL ``EPS_END``."""
-    eps_decay: int = 20_000
+    eps_decay: int = 15_000
     """Ticks of the linear ε decay. Chosen here: the original decays over 6,000 *episodes*
     (``--eps_l_d_steps=6000``, ~0.5-0.9M ticks), far beyond our budgets."""
     huber_delta: float = 10.0
@@ -351,7 +355,7 @@ class SqueezedReplay:
         spans = [self.episodes[p] for p in picks]
         length = max(n for _, n in spans)
         rows = np.array([[s + min(t, n - 1) for t in range(length)] for s, n in spans])
-        out = {k: v.view(batch, length, *v.shape[1:]) for k, v in self._gather(rows).items()}
+        out = self._gather(rows)
         lengths = torch.tensor([n for _, n in spans])
         out["mask"] = torch.arange(length).unsqueeze(0) < lengths.unsqueeze(1)
         return out

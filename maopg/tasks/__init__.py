@@ -18,6 +18,7 @@ from maopg.tasks.base import Task, TaskConfig
 #: name -> "module:TaskClass"; imported lazily so loading one task does not import the others.
 _TASKS: dict[str, str] = {
     "tool_delivery": "maopg.tasks.tool_delivery:ToolDelivery",
+    "water_filling": "maopg.tasks.water_filling:WaterFilling",
 }
 
 

@@ -1,0 +1,220 @@
+"""Command line: ``python -m eval evaluate|video|plot|table|reproduce ...``.
+
+python -m eval evaluate --checkpoint runs/tool_delivery/async/seed0 --episodes 20
+python -m eval evaluate --reference scripted --task tool_delivery --episodes 10
+python -m eval video --checkpoint runs/tool_delivery/async/seed0 --out out/td_async.mp4
+python -m eval plot runs/ --out results/
+python -m eval table runs/ --threshold tool_delivery=200
+python -m eval reproduce --runs runs --results results --seeds 0 1 2
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import maopg  # noqa: F401  (sets MUJOCO_GL=egl before anything imports mujoco)
+
+
+def _policy_args(parser: argparse.ArgumentParser) -> None:
+    source = parser.add_mutually_exclusive_group(required=True)
+    source.add_argument("--checkpoint", type=Path, help="checkpoint file or run directory")
+    source.add_argument("--reference", choices=("scripted", "random"), help="reference policy")
+    parser.add_argument("--task", default="tool_delivery", help="task of a reference policy")
+    parser.add_argument("--strategy", default="continue", help="strategy of a reference policy")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument(
+        "--sample", action="store_true", help="sample options instead of the greedy mode"
+    )
+
+
+def _policy_and_env(args: argparse.Namespace):
+    """``(label, env, policy)`` for a checkpoint or a reference policy."""
+    from maopg.env import make_env
+    from maopg.rollout import RandomPolicy, scripted_policy
+
+    if args.checkpoint is not None:
+        from eval.policy import NetworkPolicy, load_trained
+
+        trained = load_trained(args.checkpoint)
+        env = trained.make_env(args.seed)
+        policy = NetworkPolicy(trained.policy, greedy=not args.sample, seed=args.seed)
+        c = trained.config
+        label = f"{c.method} seed{c.seed} @ {trained.samples} samples"
+        return label, env, policy
+    env = make_env(args.task, args.strategy, seed=args.seed)
+    if args.reference == "random":
+        return "random", env, RandomPolicy(env.spec, args.seed)
+    return "scripted", env, scripted_policy(args.task, env.spec)
+
+
+def _thresholds(items: list[str]) -> dict[str, float]:
+    out = {}
+    for item in items:
+        task, sep, value = item.partition("=")
+        if not sep:
+            raise SystemExit(f"--threshold expects task=value, got {item!r}")
+        out[task] = float(value)
+    return out
+
+
+def cmd_evaluate(args: argparse.Namespace) -> int:
+    from eval.evaluate import evaluate, results_table, write_result
+
+    label, env, policy = _policy_and_env(args)
+    try:
+        result = evaluate(env, policy, args.episodes, seed=args.seed, label=label)
+    finally:
+        env.close()
+    print(results_table([result]), end="")
+    if args.json:
+        print(f"wrote {write_result(result, args.json)}")
+    return 0
+
+
+def cmd_video(args: argparse.Namespace) -> int:
+    from maopg.video import record_episode
+
+    _, env, policy = _policy_and_env(args)
+    try:
+        video = record_episode(env, policy, args.out, seed=args.seed, fps=args.fps)
+    finally:
+        env.close()
+    print(
+        f"{video.path}: {video.frames} frames {video.shape[1]}x{video.shape[0]}, "
+        f"return {video.ret:.1f} in {video.ticks} ticks, solved {video.solved}"
+    )
+    return 0
+
+
+def cmd_plot(args: argparse.Namespace) -> int:
+    from eval.plots import plot_all
+    from eval.runs import discover_runs
+
+    runs = discover_runs(args.runs)
+    if not runs:
+        raise SystemExit(f"no run directories (config.json + metrics.csv) under {args.runs}")
+    for path in plot_all(
+        runs, args.out, metric=args.metric, window=args.window, methods=args.methods
+    ):
+        print(f"wrote {path}")
+    return 0
+
+
+def cmd_table(args: argparse.Namespace) -> int:
+    from eval.runs import discover_runs
+    from eval.tables import peak_table, threshold_table
+
+    runs = discover_runs(args.runs)
+    if not runs:
+        raise SystemExit(f"no run directories (config.json + metrics.csv) under {args.runs}")
+    thresholds = _thresholds(args.threshold)
+    text = (
+        "## Peak performance\n\n"
+        + peak_table(runs, window=args.window, methods=args.methods)
+        + "\n## Samples to threshold\n\n"
+        + threshold_table(runs, thresholds, window=args.window, methods=args.methods)
+    )
+    print(text, end="")
+    if args.out:
+        args.out.parent.mkdir(parents=True, exist_ok=True)
+        args.out.write_text(text)
+        print(f"wrote {args.out}")
+    return 0
+
+
+def cmd_reproduce(args: argparse.Namespace) -> int:
+    from eval.reproduce import reproduce
+
+    outcomes, written = reproduce(
+        args.runs,
+        args.results,
+        thresholds=_thresholds(args.threshold),
+        window=args.window,
+        train=not args.no_train,
+        tasks=args.tasks,
+        methods=args.methods,
+        seeds=args.seeds,
+        overrides=args.set,
+        in_process=args.in_process,
+        dry_run=args.dry_run,
+    )
+    for path in written:
+        print(f"wrote {path}")
+    failed = [c for c, o in outcomes.items() if o.startswith("failed")]
+    counts: dict[str, int] = {}
+    for outcome in outcomes.values():
+        key = outcome.split(":")[0]
+        counts[key] = counts.get(key, 0) + 1
+    print("grid: " + ", ".join(f"{n} {k}" for k, n in sorted(counts.items())))
+    return 1 if failed else 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from eval.reproduce import METHODS, TASKS
+
+    parser = argparse.ArgumentParser(prog="python -m eval", description=__doc__.split("\n")[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    p = sub.add_parser("evaluate", help="mean ± std return etc. over N seeded episodes")
+    _policy_args(p)
+    p.add_argument("--episodes", type=int, default=20)
+    p.add_argument("--json", type=Path, help="also write the result as JSON here")
+    p.set_defaults(func=cmd_evaluate)
+
+    p = sub.add_parser("video", help="record one episode as a headless MP4")
+    _policy_args(p)
+    p.add_argument("--out", type=Path, required=True)
+    p.add_argument("--fps", type=int, default=4)
+    p.set_defaults(func=cmd_video)
+
+    for name, func, text in (
+        ("plot", cmd_plot, "learning curves (PNG + SVG) per task from run directories"),
+        ("table", cmd_table, "Markdown peak / samples-to-threshold tables from run directories"),
+    ):
+        p = sub.add_parser(name, help=text)
+        p.add_argument("runs", nargs="+", type=Path, help="run directories or their roots")
+        p.add_argument("--window", type=int, default=5, help="moving-mean window (iterations)")
+        p.add_argument("--methods", nargs="+", help="only these methods, in this order")
+        p.set_defaults(func=func)
+        if name == "plot":
+            p.add_argument("--out", type=Path, default=Path("results"))
+            p.add_argument(
+                "--metric",
+                default="episode_return",
+                choices=("episode_return", "option_step_reward"),
+            )
+        else:
+            p.add_argument("--threshold", nargs="*", default=[], metavar="TASK=VALUE")
+            p.add_argument("--out", type=Path, help="also write the Markdown here")
+
+    p = sub.add_parser("reproduce", help="resumable methods × tasks × seeds grid, then results")
+    p.add_argument("--runs", type=Path, default=Path("runs"))
+    p.add_argument("--results", type=Path, default=Path("results"))
+    p.add_argument("--tasks", nargs="+", default=list(TASKS))
+    p.add_argument("--methods", nargs="+", default=list(METHODS))
+    p.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2, 3, 4])
+    p.add_argument(
+        "--set",
+        nargs="*",
+        default=[],
+        metavar="KEY=VALUE",
+        help="train config overrides for every run (keep them identical across resumptions)",
+    )
+    p.add_argument("--threshold", nargs="*", default=[], metavar="TASK=VALUE")
+    p.add_argument("--window", type=int, default=5)
+    p.add_argument("--in-process", action="store_true", help="train in this process")
+    p.add_argument("--dry-run", action="store_true", help="list what would run; train nothing")
+    p.add_argument("--no-train", action="store_true", help="only regenerate figures and tables")
+    p.set_defaults(func=cmd_reproduce)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    return args.func(args)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,208 @@
+"""The reproduction grid: methods × tasks × seeds, resumable across sessions, then results.
+
+Each cell is one training run in ``<runs>/<task>/<method>/seed<seed>``:
+
+- **finished** (``final.pt`` exists, written by the trainer at the very end): skipped;
+- **partial** (a ``config.json`` but no ``final.pt``: a run killed mid-way): resumed with
+  ``--resume``, which continues from its last checkpoint bit for bit;
+- **new**: started.
+
+Runs are launched one after another as ``python -m train`` subprocesses (a crash or an
+out-of-memory kill loses one run, not the grid) or, with ``in_process=True``, by calling
+:func:`train.trainer.train` (faster to start; used by the tests). A method the trainer does not
+know is reported as unsupported instead of failing the grid. ``overrides`` (``key=value`` train
+config fields) apply to every run and must be the same on every invocation of a grid, because a
+resumed run refuses a config that differs from its saved one.
+
+Afterwards every figure and table is regenerated from whatever run data exists under
+``<runs>`` into ``<results>``: per-task learning curves (all methods, and the Fig. 4 methods),
+their CSV, and ``tables.md`` (peak, samples to threshold, Table I and II analogs).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import subprocess
+import sys
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from eval.plots import curve_table, plot_task
+from eval.runs import CONFIG, FINAL, RunData, discover_runs
+from eval.tables import peak_table, threshold_table
+
+REPO = Path(__file__).resolve().parents[1]
+METHODS = ("async", "sync-cut", "sync-wait", "end2end", "mac-dqn", "partial")
+TASKS = ("tool_delivery", "water_filling")
+FIG4_METHODS = ("async", "sync-cut", "sync-wait", "end2end")
+TABLE1_METHODS = ("async", "mac-dqn")
+TABLE2_METHODS = ("async", "partial")
+
+
+@dataclass(frozen=True)
+class Cell:
+    task: str
+    method: str
+    seed: int
+
+    def run_dir(self, runs_root: Path) -> Path:
+        return runs_root / self.task / self.method / f"seed{self.seed}"
+
+
+def cell_state(run_dir: Path) -> str:
+    """``finished`` | ``partial`` | ``new`` (see the module docstring)."""
+    if (run_dir / FINAL).exists():
+        return "finished"
+    if (run_dir / CONFIG).exists():
+        return "partial"
+    return "new"
+
+
+def trainable(method: str) -> bool:
+    """Whether ``python -m train`` accepts ``--method method`` (asks its own argument parser, so
+    the answer follows however the trainer wires its methods in)."""
+    from train.__main__ import parse_args
+
+    try:
+        with contextlib.redirect_stderr(io.StringIO()):
+            parse_args(["--method", method])
+    except SystemExit:
+        return False
+    return True
+
+
+def _train_args(cell: Cell, run_dir: Path, overrides: Sequence[str]) -> list[str]:
+    return [
+        "--task",
+        cell.task,
+        "--method",
+        cell.method,
+        "--seed",
+        str(cell.seed),
+        "--run-dir",
+        str(run_dir),
+        "--resume",
+        "progress=false",
+        *overrides,
+    ]
+
+
+def _launch(cell: Cell, run_dir: Path, overrides: Sequence[str], in_process: bool) -> str:
+    """Train one cell to completion; returns ``done`` or ``failed: <why>``."""
+    args = _train_args(cell, run_dir, overrides)
+    if in_process:
+        from train.__main__ import main as train_main
+
+        try:
+            train_main(args)
+        except (Exception, SystemExit) as err:  # one broken run must not stop the grid
+            return f"failed: {type(err).__name__}: {err}"
+        return "done"
+    proc = subprocess.run([sys.executable, "-m", "train", *args], cwd=REPO, check=False)
+    return "done" if proc.returncode == 0 else f"failed: exit code {proc.returncode}"
+
+
+def run_grid(
+    runs_root: str | Path,
+    *,
+    tasks: Sequence[str] = TASKS,
+    methods: Sequence[str] = METHODS,
+    seeds: Sequence[int] = (0, 1, 2, 3, 4),
+    overrides: Sequence[str] = (),
+    in_process: bool = False,
+    dry_run: bool = False,
+    log=print,
+) -> dict[Cell, str]:
+    """Bring every cell of the grid to ``finished``; returns each cell's outcome:
+    ``skipped`` (already finished), ``done``, ``failed: ...``, ``unsupported`` or, with
+    ``dry_run``, ``would start`` / ``would resume``."""
+    runs_root = Path(runs_root).resolve()
+    supported = {m for m in methods if trainable(m)}
+    outcomes: dict[Cell, str] = {}
+    cells = [Cell(t, m, s) for t in tasks for m in methods for s in seeds]
+    for k, cell in enumerate(cells, 1):
+        run_dir = cell.run_dir(runs_root)
+        state = cell_state(run_dir)
+        name = f"[{k}/{len(cells)}] {cell.task}/{cell.method}/seed{cell.seed}"
+        if state == "finished":
+            outcomes[cell] = "skipped"
+        elif cell.method not in supported:
+            outcomes[cell] = "unsupported"
+        elif dry_run:
+            outcomes[cell] = "would resume" if state == "partial" else "would start"
+        else:
+            log(f"{name}: {'resuming' if state == 'partial' else 'starting'} in {run_dir}")
+            outcomes[cell] = _launch(cell, run_dir, overrides, in_process)
+        log(f"{name}: {outcomes[cell]}")
+    return outcomes
+
+
+def write_results(
+    runs: Sequence[RunData],
+    results_dir: str | Path,
+    *,
+    thresholds: Mapping[str, float] | None = None,
+    window: int = 5,
+) -> list[Path]:
+    """Regenerate every figure, curve CSV and table of ``runs`` into ``results_dir``."""
+    out = Path(results_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    written: list[Path] = []
+    for task in sorted({r.task for r in runs}):
+        task_runs = [r for r in runs if r.task == task]
+        written += plot_task(task_runs, out / f"curves_{task}", window=window)
+        if any(r.method in FIG4_METHODS for r in task_runs):
+            written += plot_task(
+                task_runs,
+                out / f"fig4_{task}",
+                window=window,
+                methods=FIG4_METHODS,
+                title=f"{task}: async vs synchronous baselines and end2end (Fig. 4 analog)",
+            )
+        csv_path = out / f"curves_{task}.csv"
+        csv_path.write_text(curve_table(task_runs, window=window))
+        written.append(csv_path)
+    sections = [
+        ("Peak performance (mean ± std over seeds)", peak_table(runs, window=window)),
+        (
+            "Samples to threshold",
+            threshold_table(runs, thresholds, window=window),
+        ),
+        (
+            "Table I analog: async vs Mac-DQN",
+            peak_table(runs, window=window, methods=TABLE1_METHODS)
+            + "\n"
+            + threshold_table(runs, thresholds, window=window, methods=TABLE1_METHODS),
+        ),
+        (
+            "Table II analog: partially centralized vs centralized (async)",
+            peak_table(runs, window=window, methods=TABLE2_METHODS),
+        ),
+    ]
+    text = "# Results\n\nGenerated by `python -m eval reproduce` from the run directories. "
+    text += f"Curves are smoothed by a trailing mean over {window} iterations before peaks and "
+    text += "thresholds are taken.\n"
+    for title, table in sections:
+        text += f"\n## {title}\n\n{table}"
+    tables = out / "tables.md"
+    tables.write_text(text)
+    written.append(tables)
+    return written
+
+
+def reproduce(
+    runs_root: str | Path,
+    results_dir: str | Path,
+    *,
+    thresholds: Mapping[str, float] | None = None,
+    window: int = 5,
+    train: bool = True,
+    **grid_kw,
+) -> tuple[dict[Cell, str], list[Path]]:
+    """Run (or resume) the grid, then regenerate the results from all runs under ``runs_root``."""
+    outcomes = run_grid(runs_root, **grid_kw) if train else {}
+    runs = discover_runs([runs_root]) if Path(runs_root).exists() else []
+    written = write_results(runs, results_dir, thresholds=thresholds, window=window)
+    return outcomes, written

@@ -1,0 +1,83 @@
+import random
+
+import numpy as np
+import pytest
+import torch
+
+from maopg.learner import (
+    CheckpointError,
+    capture_global_rng,
+    load_checkpoint,
+    restore_global_rng,
+    save_checkpoint,
+)
+
+
+def test_round_trip_restores_tensors_counters_and_rng_streams(tmp_path):
+    torch.manual_seed(1)
+    np.random.seed(2)
+    random.seed(3)
+    gen = torch.Generator().manual_seed(4)
+    state = {
+        "iteration": 7,
+        "weights": {"w": torch.randn(3, 2)},
+        "config": {"task": "tool_delivery", "env_overrides": {"max_ticks": 50}},
+        "gen": gen.get_state(),
+        "global_rng": capture_global_rng(),
+    }
+    path = save_checkpoint(tmp_path / "ck.pt", state)
+    expected = (torch.rand(3), np.random.rand(3), random.random(), torch.rand(2, generator=gen))
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["ck.pt"]  # no temporary left behind
+
+    loaded = load_checkpoint(path, required=("iteration", "weights"))
+    restore_global_rng(loaded["global_rng"])
+    gen2 = torch.Generator()
+    gen2.set_state(loaded["gen"])
+    again = (torch.rand(3), np.random.rand(3), random.random(), torch.rand(2, generator=gen2))
+    torch.testing.assert_close(again[0], expected[0])
+    np.testing.assert_array_equal(again[1], expected[1])
+    assert again[2] == expected[2]
+    torch.testing.assert_close(again[3], expected[3])
+    torch.testing.assert_close(loaded["weights"]["w"], state["weights"]["w"])
+    assert loaded["config"] == state["config"]
+
+
+def test_overwrite_replaces_the_old_checkpoint(tmp_path):
+    path = tmp_path / "ck.pt"
+    save_checkpoint(path, {"iteration": 1})
+    save_checkpoint(path, {"iteration": 2})
+    assert load_checkpoint(path)["iteration"] == 2
+
+
+@pytest.mark.parametrize("damage", ["truncate", "garbage", "empty"])
+def test_corrupt_checkpoint_names_the_file(tmp_path, damage):
+    path = tmp_path / "ck.pt"
+    save_checkpoint(path, {"iteration": 1, "w": torch.randn(100)})
+    data = path.read_bytes()
+    if damage == "truncate":
+        path.write_bytes(data[: len(data) // 2])
+    elif damage == "garbage":
+        path.write_bytes(b"not a checkpoint at all" * 10)
+    else:
+        path.write_bytes(b"")
+    with pytest.raises(CheckpointError, match=str(path)):
+        load_checkpoint(path)
+
+
+def test_missing_file_and_missing_entries(tmp_path):
+    with pytest.raises(CheckpointError, match="does not exist"):
+        load_checkpoint(tmp_path / "nope.pt")
+    path = save_checkpoint(tmp_path / "ck.pt", {"iteration": 1})
+    with pytest.raises(CheckpointError, match=r"lacks the entries \['policy'\]"):
+        load_checkpoint(path, required=("iteration", "policy"))
+
+
+def test_code_carrying_pickle_is_refused(tmp_path):
+    path = tmp_path / "evil.pt"
+    torch.save({"obj": _Custom()}, path)
+    with pytest.raises(CheckpointError, match=str(path)):
+        load_checkpoint(path)
+
+
+class _Custom:
+    pass

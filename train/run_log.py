@@ -1,0 +1,118 @@
+"""Per-iteration metrics of a run: ``metrics.csv``, TensorBoard scalars, the learning-curve PNG.
+
+The CSV is the record the evaluation tools and the resume test read, so floats are written with
+``repr`` (exact round trip) and a resumed run first cuts the file back to the checkpoint's
+iteration: rows a killed run wrote after its last checkpoint are recomputed, not duplicated.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+from typing import Any
+
+COLUMNS = (
+    "iteration",
+    "samples",
+    "option_steps",
+    "episodes",
+    "episode_return",
+    "episode_length",
+    "success_rate",
+    "option_step_reward",
+    "policy_loss",
+    "value_loss",
+    "entropy",
+    "approx_kl",
+    "clip_fraction",
+    "explained_variance",
+    "samples_per_s",
+    "wall_time",
+)
+"""``episode_return`` (mean return of the episodes that ended in the iteration, NaN if none) is
+the primary metric; ``option_step_reward`` (mean summed reward per option step of the batch) is
+the paper's metric — the two are different quantities and must not be compared."""
+
+TIMING_COLUMNS = ("samples_per_s", "wall_time")
+"""Columns that depend on the machine, not on the seed (excluded from determinism checks)."""
+
+
+def _format(value: Any) -> str:
+    if isinstance(value, float):
+        return "nan" if math.isnan(value) else repr(value)
+    return str(value)
+
+
+class RunLog:
+    """Appends one row per iteration to ``metrics.csv`` and mirrors it to TensorBoard."""
+
+    def __init__(self, run_dir: Path, resume_iteration: int | None = None) -> None:
+        from torch.utils.tensorboard import SummaryWriter
+
+        self.path = run_dir / "metrics.csv"
+        if resume_iteration is None or not self.path.exists():
+            self.path.write_text(",".join(COLUMNS) + "\n")
+        else:
+            kept = [r for r in read_metrics(self.path) if int(r["iteration"]) <= resume_iteration]
+            with self.path.open("w", newline="") as handle:
+                writer = csv.DictWriter(handle, fieldnames=COLUMNS)
+                writer.writeheader()
+                writer.writerows(kept)
+        purge = None if resume_iteration is None else resume_iteration + 1
+        self.tb = SummaryWriter(str(run_dir / "tb"), purge_step=purge)
+
+    def write(self, row: dict[str, Any]) -> None:
+        with self.path.open("a", newline="") as handle:
+            handle.write(",".join(_format(row[c]) for c in COLUMNS) + "\n")
+        step = int(row["samples"])
+        for key in COLUMNS[2:]:
+            value = float(row[key])
+            if not math.isnan(value):
+                self.tb.add_scalar(f"train/{key}", value, step)
+
+    def close(self) -> None:
+        self.tb.close()
+
+
+def read_metrics(path: Path) -> list[dict[str, str]]:
+    with path.open(newline="") as handle:
+        return list(csv.DictReader(handle))
+
+
+def plot_learning_curve(csv_path: Path, png_path: Path) -> Path:
+    """Mean episode return (per iteration and smoothed) and the paper's metric vs samples."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    rows = read_metrics(csv_path)
+    samples = np.array([float(r["samples"]) for r in rows])
+    returns = np.array([float(r["episode_return"]) for r in rows])
+    paper = np.array([float(r["option_step_reward"]) for r in rows])
+
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(7, 6), sharex=True)
+    seen = ~np.isnan(returns)
+    top.plot(samples[seen], returns[seen], ".", alpha=0.3, label="per iteration")
+    if seen.sum() >= 2:
+        window = max(1, int(seen.sum()) // 20)
+        kernel = np.ones(window) / window
+        top.plot(
+            samples[seen][window - 1 :],
+            np.convolve(returns[seen], kernel, mode="valid"),
+            label=f"moving mean ({window} iterations)",
+        )
+    top.set_ylabel("mean episode return")
+    top.legend(loc="lower right")
+    top.grid(alpha=0.3)
+    bottom.plot(samples, paper, color="tab:green")
+    bottom.set_ylabel("mean option-step reward\n(paper's metric)")
+    bottom.set_xlabel("low-level samples (ticks)")
+    bottom.grid(alpha=0.3)
+    fig.suptitle(csv_path.parent.name)
+    fig.tight_layout()
+    fig.savefig(png_path, dpi=120)
+    plt.close(fig)
+    return png_path
