@@ -7,7 +7,7 @@ For each setting the task runs ``--ticks`` ticks (episodes of 300) with 64 px im
 frames it rendered are counted (the cameras of the choosing agents at every decision point).
 The bare reference, on the same compiled model: ``mj_step`` for the same simulated time, and a
 reused fast ``mujoco.Renderer`` rendering the same number of frames from the robots' cameras.
-``Scene.advance`` (the sim core, which runs the drone's 100 Hz Python controller inside the
+``Scene.advance`` (the sim core, which runs the drone's 50 Hz Python controller inside the
 tick) is timed separately, so the table shows where the overhead comes from.
 """
 
@@ -118,7 +118,7 @@ def main(argv: list[str] | None = None) -> int:
     print(
         "\noverhead = task time / (bare mj_step + bare render) − 1; the last column is the part "
         "of it spent in `Scene.advance` beyond bare `mj_step` (the drone's cascaded controller, "
-        "run in Python at 100 Hz by the sim core)."
+        "run in Python at 50 Hz by the sim core)."
     )
     return 0
 

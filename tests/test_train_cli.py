@@ -14,7 +14,7 @@ import pytest
 
 from maopg.learner import CheckpointError, load_checkpoint
 from train.__main__ import main, parse_args
-from train.config import METHODS, TrainConfig, parse_overrides
+from train.config import METHODS, TASK_DEFAULTS, TrainConfig, parse_overrides
 from train.run_log import COLUMNS, TIMING_COLUMNS
 
 REPO = Path(__file__).resolve().parents[1]
@@ -55,9 +55,10 @@ def test_overrides_are_typed_and_checked():
 
 
 @pytest.mark.parametrize("method", sorted(METHODS))
-def test_every_method_trains_a_tiny_budget(tmp_path, method):
+@pytest.mark.parametrize("task", sorted(TASK_DEFAULTS))
+def test_every_method_trains_a_tiny_budget(tmp_path, task, method):
     run_dir = tmp_path / method
-    task = ["--task", "tool_delivery", "--method", method, "--seed", "0"]
+    task = ["--task", task, "--method", method, "--seed", "0"]
     main([*task, "--total-samples", "120", "--run-dir", str(run_dir), *TINY])
     rows = _rows(run_dir)
     assert len(rows) >= 2 and list(rows[0]) == list(COLUMNS)

@@ -6,7 +6,7 @@ jars on stands; their water levels drop at random and the vehicle (0.5 m/s) can 
 within 1 m, while the drone (2 m/s, cruising at 1.5 m over the furniture) can only look.
 
 One tick is 0.5 s of simulated time (vehicle: 0.25 m, drone: 1 m per tick at full speed) at a
-5 ms physics step (the drone's attitude loop runs at 100 Hz). Rules applied after each tick's
+5 ms physics step (the drone's attitude loop runs at 50 Hz). Rules applied after each tick's
 physics, in this order:
 
 1. **water**: each jar counts down an interval ``round(Exp(scale=s))`` ticks, ``s`` drawn with
@@ -77,7 +77,7 @@ class Config(TaskConfig):
     max_ticks: int = 300
     tick_seconds: float = 0.5
     timestep: float = 0.005
-    """Physics step (s); the drone's 100 Hz controller needs a multiple of it of 10 ms."""
+    """Physics step (s); the drone's 50 Hz controller runs every 4 steps; it is tuned for steps <= 5 ms."""
     arena: str = "arenas/water_filling.xml"
     vehicle_robot: str = "vehicle"
     drone_robot: str = "drone"
@@ -375,15 +375,6 @@ class WaterFilling(SceneTask):
     def solved(self) -> bool:
         """No jar ran dry during the episode."""
         return not self.ran_dry
-
-    def hold(self, agent: int) -> None:
-        """Stay put. The vehicle brakes to zero velocity instead of holding its position:
-        a position hold right after an arrival commands a small velocity back against the
-        residual motion, and the heading (which follows commanded motion) would spin round."""
-        if agent == VEHICLE:
-            self.vehicle.set_velocity(0.0, 0.0)
-        else:
-            self.drone.hold()
 
     # --------------------------------------------------------------- rules used by options
     def xy(self, agent: int) -> tuple[float, float]:

@@ -224,8 +224,13 @@ class PlanarGroundAdapter(GroundAdapter):
         self.hold()
 
     def hold(self) -> None:
-        pos = self.data.xpos[self.root_body_id]
-        self.drive_to((pos[0], pos[1]))
+        """Brake to a stop where the robot is, keeping its heading.
+
+        A position hold would command a small velocity back against the residual motion of
+        a robot that is still moving, and the heading (which follows commanded motion) would
+        swing round; a zero-velocity servo stops within a few servo time constants instead.
+        """
+        self.set_velocity(0.0, 0.0)
 
     def drive_to(self, xy: Sequence[float], speed: float | None = None) -> None:
         self._goal = (float(xy[0]), float(xy[1]))
