@@ -80,7 +80,7 @@ def read_metrics(path: Path) -> list[dict[str, str]]:
         return list(csv.DictReader(handle))
 
 
-def plot_learning_curve(csv_path: Path, png_path: Path) -> Path:
+def plot_learning_curve(csv_path: Path, png_path: Path, title: str = "") -> Path:
     """Mean episode return (per iteration and smoothed) and the paper's metric vs samples."""
     import matplotlib
 
@@ -111,7 +111,7 @@ def plot_learning_curve(csv_path: Path, png_path: Path) -> Path:
     bottom.set_ylabel("mean option-step reward\n(paper's metric)")
     bottom.set_xlabel("low-level samples (ticks)")
     bottom.grid(alpha=0.3)
-    fig.suptitle(csv_path.parent.name)
+    fig.suptitle(title or csv_path.parent.name)
     fig.tight_layout()
     fig.savefig(png_path, dpi=120)
     plt.close(fig)

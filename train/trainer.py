@@ -221,7 +221,9 @@ def after_training(run_dir: Path, policy: OptionPolicy) -> None:
     ``policy`` is the trained policy (also in ``final.pt``; the run's ``config.json`` says how to
     rebuild its environment). The evaluation tools plug their rollout video in here.
     """
-    plot_learning_curve(run_dir / "metrics.csv", run_dir / "learning_curve.png")
+    config = TrainConfig.load(run_dir / "config.json")
+    title = f"{config.task} · {config.method} · seed {config.seed}"
+    plot_learning_curve(run_dir / "metrics.csv", run_dir / "learning_curve.png", title)
 
 
 def load_final(run_dir: Path) -> dict[str, Any]:

@@ -77,7 +77,7 @@ class Config(TaskConfig):
     max_ticks: int = 300
     tick_seconds: float = 0.5
     timestep: float = 0.005
-    """Physics step (s); the drone's 50 Hz controller runs every 4 steps; it is tuned for steps <= 5 ms."""
+    """Physics step (s); the drone's 50 Hz controller runs every 4 steps (tuned for <= 5 ms)."""
     arena: str = "arenas/water_filling.xml"
     vehicle_robot: str = "vehicle"
     drone_robot: str = "drone"
