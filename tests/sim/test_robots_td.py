@@ -11,22 +11,10 @@ import pytest
 
 from maopg.sim.render import CameraRenderer
 from maopg.sim.robots import get_robot, robot_names
-from maopg.sim.scene import Scene, SceneBuilder
+from maopg.sim.scene import SceneBuilder
 
 TD_TIMESTEP = 0.02
 TICK = 1.0
-HOLDERS = (None, "fetch/gripper", "tb0/basket", "tb1/basket")
-
-
-def td_scene(tb0=(3.0, 1.5), tb1=(3.0, 2.5)) -> Scene:
-    """The Tool Delivery scene as the task composes it (DESIGN section 7)."""
-    builder = SceneBuilder("arenas/tool_delivery.xml", timestep=TD_TIMESTEP)
-    builder.add_robot("fetch", "fetch", (0.9, 1.8, 0.0))
-    builder.add_robot("tb0", "turtlebot", (*tb0, 0.0))
-    builder.add_robot("tb1", "turtlebot", (*tb1, 0.0))
-    for i in range(3):
-        builder.add_attachable(f"tool{i}/tool", HOLDERS)
-    return builder.build()
 
 
 # --- every registered robot ------------------------------------------------------------------
@@ -67,7 +55,7 @@ def test_registered_robot_composes_steps_and_sees(name: str) -> None:
 
 
 # --- Turtlebot -------------------------------------------------------------------------------
-def test_turtlebot_drives_3m_at_0p6_and_arrives_without_overshoot() -> None:
+def test_turtlebot_drives_3m_at_0p6_and_arrives_without_overshoot(td_scene) -> None:
     scene = td_scene(tb0=(3.0, 2.5), tb1=(3.0, 1.5))
     tb = scene.robots["tb0"]
     goal = (6.0, 2.5)
@@ -86,7 +74,7 @@ def test_turtlebot_drives_3m_at_0p6_and_arrives_without_overshoot() -> None:
     assert abs(tb.yaw) < 0.05, "heading follows the motion (east)"
 
 
-def test_turtlebot_heading_follows_motion_and_stops_at_walls() -> None:
+def test_turtlebot_heading_follows_motion_and_stops_at_walls(td_scene) -> None:
     scene = td_scene()
     tb = scene.robots["tb0"]
     tb.set_velocity(0.0, -0.6)  # south, into the south wall (inner face y = 0)
@@ -97,7 +85,7 @@ def test_turtlebot_heading_follows_motion_and_stops_at_walls() -> None:
     assert radius - 0.02 < tb.position[1] < radius + 0.02, "walls stop the base"
 
 
-def test_turtlebots_share_a_waypoint() -> None:
+def test_turtlebots_share_a_waypoint(td_scene) -> None:
     """Ground robots do not collide with each other: both can stand at WA0."""
     scene = td_scene()
     for name in ("tb0", "tb1"):
@@ -108,7 +96,7 @@ def test_turtlebots_share_a_waypoint() -> None:
 
 
 # --- Fetch -----------------------------------------------------------------------------------
-def test_fetch_reaches_joint_targets_in_bounded_time() -> None:
+def test_fetch_reaches_joint_targets_in_bounded_time(td_scene) -> None:
     scene = td_scene()
     fetch = scene.robots["fetch"]
     for target in ([1.0, 0.4, -1.2, -0.8], [-2.5, 0.9, -2.0, -0.4], [0.0, 0.0, 0.0, 0.0]):
@@ -122,7 +110,7 @@ def test_fetch_reaches_joint_targets_in_bounded_time() -> None:
     "where",
     ["shelf/slot0", "shelf/slot1", "shelf/slot2", "desk/slot0", "desk/slot1", "basket0", "basket1"],
 )
-def test_fetch_ik_reaches_shelf_desk_and_baskets(where: str) -> None:
+def test_fetch_ik_reaches_shelf_desk_and_baskets(where: str, td_scene) -> None:
     # Turtlebots parked at their desk spots, as during a pass.
     scene = td_scene(tb0=(0.8, 3.0), tb1=(1.2, 3.0))
     fetch = scene.robots["fetch"]
@@ -135,7 +123,7 @@ def test_fetch_ik_reaches_shelf_desk_and_baskets(where: str) -> None:
     assert np.linalg.norm(fetch.grasp_site_position - target) < 0.02
 
 
-def test_fetch_ik_rejects_unreachable_targets() -> None:
+def test_fetch_ik_rejects_unreachable_targets(td_scene) -> None:
     scene = td_scene()
     with pytest.raises(ValueError, match="out of reach"):
         scene.robots["fetch"].ik((6.0, 3.0, 0.5))

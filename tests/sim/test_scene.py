@@ -11,20 +11,8 @@ from maopg.sim.robots import get_robot, register_robot, robot_names
 from maopg.sim.robots.turtlebot import TurtlebotAdapter, TurtlebotConstants
 from maopg.sim.scene import MJCFError, Scene, SceneBuilder
 
-HOLDERS = (None, "fetch/gripper", "tb0/basket", "tb1/basket")
 
-
-def td_scene(tb0=(3.0, 1.5), tb1=(3.0, 2.5)) -> Scene:
-    builder = SceneBuilder("arenas/tool_delivery.xml", timestep=0.02)
-    builder.add_robot("fetch", "fetch", (0.9, 1.8, 0.0))
-    builder.add_robot("tb0", "turtlebot", (*tb0, 0.0))
-    builder.add_robot("tb1", "turtlebot", (*tb1, 0.0))
-    for i in range(3):
-        builder.add_attachable(f"tool{i}/tool", HOLDERS)
-    return builder.build()
-
-
-def test_composed_scene_has_prefixed_robots_props_and_cameras() -> None:
+def test_composed_scene_has_prefixed_robots_props_and_cameras(td_scene) -> None:
     scene = td_scene()
     assert set(scene.robots) == {"fetch", "tb0", "tb1"}
     assert scene.robots["tb1"].camera_name == "tb1/camera"
@@ -84,14 +72,13 @@ def test_user_robot_registered_from_a_file_and_duplicates_refused(monkeypatch) -
     assert scene.robots["s"].position[0] == pytest.approx(4.3, abs=0.01)
 
 
-def test_advance_rejects_a_duration_that_is_not_whole_steps() -> None:
+def test_advance_rejects_a_duration_that_is_not_whole_steps(td_scene) -> None:
     scene = td_scene()
     with pytest.raises(ValueError, match="multiple of the timestep"):
         scene.advance(0.013)
 
 
-def _random_episode(seed: int, ticks: int = 40) -> tuple[np.ndarray, np.ndarray]:
-    scene = td_scene()
+def _random_episode(scene: Scene, seed: int, ticks: int = 40) -> tuple[np.ndarray, np.ndarray]:
     rng = np.random.default_rng(seed)
     fetch = scene.robots["fetch"]
     for t in range(ticks):
@@ -105,15 +92,15 @@ def _random_episode(seed: int, ticks: int = 40) -> tuple[np.ndarray, np.ndarray]
     return scene.data.qpos.copy(), scene.data.qvel.copy()
 
 
-def test_same_seed_gives_bit_identical_state_across_builds() -> None:
-    qpos_a, qvel_a = _random_episode(seed=7)
-    qpos_b, qvel_b = _random_episode(seed=7)
+def test_same_seed_gives_bit_identical_state_across_builds(td_scene) -> None:
+    qpos_a, qvel_a = _random_episode(td_scene(), seed=7)
+    qpos_b, qvel_b = _random_episode(td_scene(), seed=7)
     assert np.array_equal(qpos_a, qpos_b) and np.array_equal(qvel_a, qvel_b)
-    qpos_c, _ = _random_episode(seed=8)
+    qpos_c, _ = _random_episode(td_scene(), seed=8)
     assert not np.array_equal(qpos_a, qpos_c)
 
 
-def test_tool_travels_shelf_to_gripper_to_desk_to_basket_without_jumps() -> None:
+def test_tool_travels_shelf_to_gripper_to_desk_to_basket_without_jumps(td_scene) -> None:
     scene = td_scene(tb0=(0.8, 3.0))
     fetch, tb0 = scene.robots["fetch"], scene.robots["tb0"]
     tool = "tool2/tool"
@@ -163,7 +150,7 @@ def test_tool_travels_shelf_to_gripper_to_desk_to_basket_without_jumps() -> None
     np.testing.assert_allclose(moved[:2], tb0.position[:2] - (0.8, 3.0), atol=0.01)
 
 
-def test_place_and_reset_restore_welds_colours_and_state() -> None:
+def test_place_and_reset_restore_welds_colours_and_state(td_scene) -> None:
     scene = td_scene()
     scene.place("tool0/tool", scene.site_position("human/slot0") + np.array((0.0, 0.0, 0.01)))
     scene.advance(1.0)
@@ -185,7 +172,7 @@ def test_place_and_reset_restore_welds_colours_and_state() -> None:
     assert np.array_equal(scene.data.qpos, fresh.data.qpos), "a stale weld or command survived"
 
 
-def test_attach_to_an_undeclared_holder_is_refused() -> None:
+def test_attach_to_an_undeclared_holder_is_refused(td_scene) -> None:
     scene = td_scene()
     with pytest.raises(KeyError, match="no weld declared"):
         scene.attach("tool0/tool", "fetch/base")
