@@ -13,7 +13,6 @@ from maopg.sim.render import CameraRenderer
 from maopg.sim.robots import get_robot, robot_names
 from maopg.sim.scene import SceneBuilder
 
-TD_TIMESTEP = 0.02
 TICK = 1.0
 
 
