@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
 import maopg  # noqa: F401  (sets MUJOCO_GL before anything imports mujoco)
 from train.config import METHODS, TASK_DEFAULTS, TrainConfig, parse_overrides
@@ -46,16 +47,15 @@ def parse_args(argv: list[str] | None = None) -> tuple[TrainConfig, argparse.Nam
         "images": args.images,
     }
     values.update({k: v for k, v in named.items() if v is not None})
-    if args.resume and args.run_dir is not None:
+    config = TrainConfig(**values)
+    if args.resume:
         # A resumed run starts from its saved config; flags given now must agree with it.
-        from pathlib import Path
-
-        saved = Path(args.run_dir) / "config.json"
+        saved = Path(config.resolved().run_dir) / "config.json"  # type: ignore[arg-type]
         if saved.exists():
             base = TrainConfig.load(saved).to_dict()
             base.update(values)
-            return TrainConfig.from_dict(base), args
-    return TrainConfig(**values), args
+            config = TrainConfig.from_dict(base)
+    return config, args
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -54,7 +54,11 @@ class RunLog:
         if resume_iteration is None or not self.path.exists():
             self.path.write_text(",".join(COLUMNS) + "\n")
         else:
-            kept = [r for r in read_metrics(self.path) if int(r["iteration"]) <= resume_iteration]
+            kept = [
+                r
+                for r in read_metrics(self.path)
+                if None not in r.values() and int(r["iteration"]) <= resume_iteration
+            ]
             with self.path.open("w", newline="") as handle:
                 writer = csv.DictWriter(handle, fieldnames=COLUMNS)
                 writer.writeheader()

@@ -22,7 +22,6 @@ from tqdm import tqdm
 
 from maopg.learner import (
     MAPPO,
-    CheckpointError,
     Sampler,
     ValueNorm,
     capture_global_rng,
@@ -224,11 +223,3 @@ def after_training(run_dir: Path, policy: OptionPolicy) -> None:
     config = TrainConfig.load(run_dir / "config.json")
     title = f"{config.task} · {config.method} · seed {config.seed}"
     plot_learning_curve(run_dir / "metrics.csv", run_dir / "learning_curve.png", title)
-
-
-def load_final(run_dir: Path) -> dict[str, Any]:
-    """The trained weights and config of a finished run (``final.pt``)."""
-    return load_checkpoint(Path(run_dir) / FINAL, required=("config", "policy", "critic"))
-
-
-__all__ = ["CheckpointError", "after_training", "load_final", "train"]

@@ -13,8 +13,8 @@ Resuming. An environment's state is the seed of its current episode plus the joi
 since that episode's reset: :meth:`Sampler.state_dict` stores exactly that, and
 :meth:`Sampler.load_state_dict` replays it (at most one episode per environment), which rebuilds
 the physics, the option executions and the observations bit for bit, since the simulation is
-deterministic given seed and actions. A replay that does not land on the recorded tick count
-raises instead of silently diverging.
+deterministic given seed and actions. A replay whose decision point differs from the recorded
+one (fingerprint of observations, condition and tick count) raises instead of silently diverging.
 
 Rendering. A ``fork``ed child hangs if its parent already created a MuJoCo renderer (DESIGN §2),
 so workers are ``spawn``ed and the main process never builds an environment when workers are
@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import contextlib
 import copy
+import hashlib
 import multiprocessing as mp
 import traceback
 from collections.abc import Mapping, Sequence
@@ -43,6 +44,17 @@ from maopg.policy import CentralCritic, ObsBatch, OptionPolicy, stack_conditions
 def episode_seed(run_seed: int, env_index: int, episode: int) -> int:
     """The reset seed of episode ``episode`` of environment ``env_index`` in run ``run_seed``."""
     return int(np.random.SeedSequence([run_seed, env_index, episode]).generate_state(1)[0])
+
+
+def _digest(point: DecisionPoint) -> str:
+    """Fingerprint of a decision point's observations and condition (to verify a replay)."""
+    digest = hashlib.sha256()
+    for array in (*point.vectors, point.choosing, point.running, *point.available):
+        digest.update(np.ascontiguousarray(array).tobytes())
+    if point.images is not None:
+        digest.update(np.ascontiguousarray(point.images).tobytes())
+    digest.update(str(point.ticks).encode())
+    return digest.hexdigest()
 
 
 @dataclass(frozen=True)
@@ -256,7 +268,7 @@ class Sampler:
             "actions": [
                 torch.from_numpy(np.asarray(a, dtype=np.int64).reshape(-1, n)) for a in self.actions
             ],
-            "ticks": [int(p.ticks) for p in self.points],
+            "digest": [_digest(p) for p in self.points],
         }
 
     def load_state_dict(self, state: dict[str, Any]) -> None:
@@ -269,11 +281,13 @@ class Sampler:
         self.actions = [list(a.numpy()) for a in state["actions"]]
         seeds = [episode_seed(self.seed, e, j) for e, j in enumerate(self.episode)]
         self.points = self._envs.call_split("replay", seeds, self.actions)
-        got = [int(p.ticks) for p in self.points]
-        if got != [int(t) for t in state["ticks"]]:
+        got = [_digest(p) for p in self.points]
+        if got != list(state["digest"]):
+            bad = [e for e, (a, b) in enumerate(zip(got, state["digest"], strict=True)) if a != b]
             raise RuntimeError(
-                f"replaying the saved options reached ticks {got}, expected {state['ticks']}: "
-                "the environment is not deterministic given its seed and actions"
+                f"replaying the saved options of environments {bad} did not reproduce their "
+                "saved decision points: the environment is not deterministic given its seed "
+                "and actions (or the task changed since the checkpoint)"
             )
 
     def close(self) -> None:
