@@ -121,7 +121,8 @@ def run_grid(
     runs_root = Path(runs_root).resolve()
     supported = {m for m in methods if trainable(m)}
     outcomes: dict[Cell, str] = {}
-    cells = [Cell(t, m, s) for t in tasks for m in methods for s in seeds]
+    # Seed-major: an interrupted grid has every method at the same number of seeds.
+    cells = [Cell(t, m, s) for t in tasks for s in seeds for m in methods]
     for k, cell in enumerate(cells, 1):
         run_dir = cell.run_dir(runs_root)
         state = cell_state(run_dir)
