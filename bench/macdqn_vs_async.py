@@ -4,8 +4,8 @@ Run (full benchmark, hours on 2 cores)::
 
     .venv/bin/python bench/macdqn_vs_async.py --seeds 0 1 2 3 4 --total-samples 200000
 
-Each (method, seed) trains into ``<out>/<method>/seed<s>`` with the normal run directory of its
-trainer, then writes ``<out>/<method>/seed<s>/result.json``. A rerun skips every run that has its
+Each (method, seed) trains into ``<out>/<method>/seed<s>`` (a normal ``train`` run directory),
+then writes ``<out>/<method>/seed<s>/result.json``. A rerun skips every run that has its
 result, resumes a run that was interrupted (from its checkpoint), and always rewrites the summary
 ``<out>/summary.md`` from all results found. Both methods get the same budget in low-level ticks.
 
@@ -26,7 +26,6 @@ from typing import Any
 import numpy as np
 
 import maopg  # noqa: F401  (sets MUJOCO_GL=egl before mujoco is imported)
-from maopg.learner.macdqn_trainer import MacDQNTrainConfig, train_macdqn
 from train.config import TrainConfig
 from train.run_log import read_metrics
 from train.trainer import CHECKPOINT, train
@@ -61,18 +60,17 @@ def run_one(method: str, seed: int, args: argparse.Namespace) -> dict[str, Any]:
     if result_path.exists():
         return json.loads(result_path.read_text())
     resume = (run_dir / CHECKPOINT).exists()
-    common = {
-        "task": "tool_delivery",
-        "seed": seed,
-        "total_samples": args.total_samples,
-        "run_dir": str(run_dir),
-        "progress": not args.quiet,
-        "torch_threads": args.torch_threads,
-    }
-    if method == "mac-dqn":
-        train_macdqn(MacDQNTrainConfig(**common), resume=resume, overwrite=not resume)
-    else:
-        train(TrainConfig(method=method, **common), resume=resume, overwrite=not resume)
+    config = TrainConfig(
+        task="tool_delivery",
+        method=method,
+        seed=seed,
+        total_samples=args.total_samples,
+        run_dir=str(run_dir),
+        progress=not args.quiet,
+        video=False,
+        torch_threads=args.torch_threads,
+    )
+    train(config, resume=resume, overwrite=not resume)
     result = {
         "method": method,
         "seed": seed,

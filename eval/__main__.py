@@ -25,7 +25,9 @@ def _policy_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--strategy", default="continue", help="strategy of a reference policy")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument(
-        "--sample", action="store_true", help="sample options instead of the greedy mode"
+        "--sample",
+        action="store_true",
+        help="sample options instead of the greedy mode (Mac-DQN: ε-greedy at its final ε)",
     )
 
 
@@ -35,11 +37,11 @@ def _policy_and_env(args: argparse.Namespace):
     from maopg.rollout import RandomPolicy, scripted_policy
 
     if args.checkpoint is not None:
-        from eval.policy import NetworkPolicy, load_trained
+        from eval.policy import load_trained
 
         trained = load_trained(args.checkpoint)
         env = trained.make_env(args.seed)
-        policy = NetworkPolicy(trained.policy, greedy=not args.sample, seed=args.seed)
+        policy = trained.actor(greedy=not args.sample, seed=args.seed)
         c = trained.config
         label = f"{c.method} seed{c.seed} @ {trained.samples} samples"
         return label, env, policy

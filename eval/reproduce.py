@@ -12,7 +12,8 @@ out-of-memory kill loses one run, not the grid) or, with ``in_process=True``, by
 :func:`train.trainer.train` (faster to start; used by the tests). A method the trainer does not
 know is reported as unsupported instead of failing the grid. ``overrides`` (``key=value`` train
 config fields) apply to every run and must be the same on every invocation of a grid, because a
-resumed run refuses a config that differs from its saved one.
+resumed run refuses a config that differs from its saved one. Grid runs record no rollout video
+(``video=false``; ``python -m eval video`` makes one from any finished run).
 
 Afterwards every figure and table is regenerated from whatever run data exists under
 ``<runs>`` into ``<results>``: per-task learning curves (all methods, and the Fig. 4 methods),
@@ -85,6 +86,7 @@ def _train_args(cell: Cell, run_dir: Path, overrides: Sequence[str]) -> list[str
         str(run_dir),
         "--resume",
         "progress=false",
+        "video=false",
         *overrides,
     ]
 

@@ -1,4 +1,5 @@
-"""The ``train`` command line on the real tasks: every method, resume after a kill, bad input."""
+"""The ``train`` command line on the real tasks: every method (MAPPO's and Mac-DQN), resume after
+a kill, the rollout video, bad input."""
 
 from __future__ import annotations
 
@@ -10,15 +11,27 @@ import sys
 import time
 from pathlib import Path
 
+import imageio.v2 as imageio
 import pytest
 
-from maopg.learner import CheckpointError, load_checkpoint
+from eval.policy import load_trained
+from maopg.learner import CheckpointError, MacDQNConfig, load_checkpoint
+from maopg.rollout import run_episode
 from train.__main__ import main, parse_args
-from train.config import METHODS, TASK_DEFAULTS, TrainConfig, parse_overrides
-from train.run_log import COLUMNS, TIMING_COLUMNS
+from train.config import MAC_DQN, METHODS, TASK_DEFAULTS, TrainConfig, parse_overrides
+from train.run_log import MACDQN_COLUMNS, MAPPO_COLUMNS, TIMING_COLUMNS
 
 REPO = Path(__file__).resolve().parents[1]
-TINY = ["batch_ticks=60", "num_envs=2", "epochs=2", "progress=false", "checkpoint_every=2"]
+TINY = [
+    "batch_ticks=60",
+    "num_envs=2",
+    "epochs=2",
+    "progress=false",
+    "video=false",
+    "checkpoint_every=2",
+    "dqn.learning_starts=40",
+    "dqn.train_every=20",
+]
 
 
 def _rows(run_dir: Path) -> list[dict[str, str]]:
@@ -32,7 +45,15 @@ def _deterministic(rows: list[dict[str, str]]) -> list[dict[str, str]]:
 
 def test_overrides_are_typed_and_checked():
     values = parse_overrides(
-        ["epochs=5", "lr=1e-3", "images=false", "total_samples=2_000", "env.max_ticks=50"]
+        [
+            "epochs=5",
+            "lr=1e-3",
+            "images=false",
+            "total_samples=2_000",
+            "env.max_ticks=50",
+            "dqn.lr=2e-4",
+            "dqn.recurrent=yes",
+        ]
     )
     assert values == {
         "epochs": 5,
@@ -40,11 +61,17 @@ def test_overrides_are_typed_and_checked():
         "images": False,
         "total_samples": 2000,
         "env_overrides": {"max_ticks": 50},
+        "dqn": {"lr": 2e-4, "recurrent": True},
     }
     with pytest.raises(ValueError, match="unknown config key 'epoch'"):
         parse_overrides(["epoch=5"])
+    with pytest.raises(ValueError, match=r"unknown config key 'dqn\.epochs'"):
+        parse_overrides(["dqn.epochs=5"])
     with pytest.raises(ValueError, match="expected int"):
         parse_overrides(["epochs=many"])
+    config, _ = parse_args(["--method", "mac-dqn", "dqn.train_every=7"])
+    assert config.dqn == MacDQNConfig(train_every=7) and config.resolved().strategy == "continue"
+    assert TrainConfig.from_dict(config.to_dict()) == config
     config, _ = parse_args(["--method", "sync-wait", "--seed", "3", "discount=option"])
     resolved = config.resolved()
     assert (resolved.strategy, resolved.policy_kind) == ("all", "centralized")
@@ -59,20 +86,33 @@ def test_overrides_are_typed_and_checked():
 def test_every_method_trains_a_tiny_budget(tmp_path, task, method):
     run_dir = tmp_path / method
     task = ["--task", task, "--method", method, "--seed", "0"]
-    main([*task, "--total-samples", "120", "--run-dir", str(run_dir), *TINY])
+    # 40-tick episodes: some end in the budget, so Mac-DQN's replay can serve updates
+    main([*task, "--total-samples", "120", "--run-dir", str(run_dir), *TINY, "env.max_ticks=40"])
     rows = _rows(run_dir)
-    assert len(rows) >= 2 and list(rows[0]) == list(COLUMNS)
+    columns = MACDQN_COLUMNS if method == MAC_DQN else MAPPO_COLUMNS
+    assert len(rows) >= 2 and list(rows[0]) == list(columns)
     assert int(rows[-1]["samples"]) >= 120
     for row in rows:
         assert int(row["option_steps"]) > 0
         assert float(row["samples_per_s"]) > 0
-        assert float(row["entropy"]) >= 0
+        if method == MAC_DQN:
+            assert 0 < float(row["epsilon"]) <= 1
+        else:
+            assert float(row["entropy"]) >= 0
     for name in ("config.json", "checkpoint.pt", "final.pt", "learning_curve.png"):
         assert (run_dir / name).is_file(), name
+    assert not (run_dir / "rollout.mp4").exists()  # video=false
     assert any((run_dir / "tb").iterdir())
     final = load_checkpoint(run_dir / "final.pt")
     assert final["config"]["method"] == method
     assert final["samples"] == int(rows[-1]["samples"])
+    if method == MAC_DQN:
+        assert int(rows[-1]["updates"]) > 0 and float(rows[-1]["loss"]) >= 0
+        # resuming a finished run with a larger budget continues it
+        main(["--resume", "--run-dir", str(run_dir), "--total-samples", "180", "progress=false"])
+        resumed = _rows(run_dir)
+        assert resumed[: len(rows)] == rows and int(resumed[-1]["samples"]) >= 180
+        assert int(resumed[-1]["updates"]) > int(rows[-1]["updates"])
 
 
 def test_kill_and_resume_reproduces_the_uninterrupted_run(tmp_path):
@@ -122,3 +162,24 @@ def test_existing_run_needs_resume_and_corrupt_checkpoint_is_named(tmp_path):
         main(["--resume", "--run-dir", str(run_dir), "--total-samples", "200"])
     with pytest.raises(ValueError, match="seed"):
         main(["--resume", "--run-dir", str(run_dir), "--seed", "9"])
+
+
+@pytest.mark.parametrize("method", ["async", MAC_DQN])
+def test_video_of_the_trained_policy(tmp_path, method):
+    """``video=true`` leaves the greedy seed-0 episode of the policy saved in ``final.pt``."""
+    run_dir = tmp_path / method
+    args = ["--method", method, "--total-samples", "60", "--run-dir", str(run_dir), *TINY]
+    main([*args, "video=true", "env.max_ticks=30"])
+    trained = load_trained(run_dir)
+    env = trained.make_env(0)
+    try:
+        episode = run_episode(env, trained.actor(greedy=True), seed=0)
+    finally:
+        env.close()
+    reader = imageio.get_reader(run_dir / "rollout.mp4")
+    try:
+        frames = [frame.shape for frame in reader.iter_data()]
+    finally:
+        reader.close()
+    assert len(frames) == episode.ticks + 1 and 0 < episode.ticks <= 30
+    assert len(set(frames)) == 1 and frames[0][0] >= 64 and frames[0][2] == 3

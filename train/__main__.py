@@ -1,7 +1,8 @@
 """Command line: ``python -m train --task tool_delivery --method async --seed 0 [key=value ...]``.
 
 Named flags cover what one changes per run; any :class:`~train.config.TrainConfig` field can be
-overridden as ``key=value`` (``epochs=5 num_envs=8``) and task settings as ``env.key=value``.
+overridden as ``key=value`` (``epochs=5 num_envs=8``), Mac-DQN's as ``dqn.key=value`` and task
+settings as ``env.key=value``.
 """
 
 from __future__ import annotations
@@ -11,15 +12,16 @@ import sys
 from pathlib import Path
 
 import maopg  # noqa: F401  (sets MUJOCO_GL before anything imports mujoco)
-from train.config import METHODS, TASK_DEFAULTS, TrainConfig, parse_overrides
+from train.config import METHODS, TASK_DEFAULTS, TrainConfig, merge, parse_overrides
 
 
 def parse_args(argv: list[str] | None = None) -> tuple[TrainConfig, argparse.Namespace]:
     parser = argparse.ArgumentParser(
         prog="python -m train",
-        description="Train an option-based multi-agent policy with MAPPO.",
+        description="Train an option-based multi-agent policy (MAPPO, or the Mac-DQN baseline).",
         epilog="Extra arguments key=value override any config field (e.g. epochs=5, "
-        "discount=option, num_workers=2) or, as env.key=value, a task setting.",
+        "discount=option, num_workers=2, video=false), as dqn.key=value a Mac-DQN "
+        "hyper-parameter (dqn.lr=1e-3) or, as env.key=value, a task setting.",
     )
     parser.add_argument("--task", choices=sorted(TASK_DEFAULTS), default=None)
     parser.add_argument("--method", choices=sorted(METHODS), default=None)
@@ -47,14 +49,12 @@ def parse_args(argv: list[str] | None = None) -> tuple[TrainConfig, argparse.Nam
         "images": args.images,
     }
     values.update({k: v for k, v in named.items() if v is not None})
-    config = TrainConfig(**values)
+    config = TrainConfig.from_dict(merge(TrainConfig().to_dict(), values))
     if args.resume:
         # A resumed run starts from its saved config; flags given now must agree with it.
         saved = Path(config.resolved().run_dir) / "config.json"  # type: ignore[arg-type]
         if saved.exists():
-            base = TrainConfig.load(saved).to_dict()
-            base.update(values)
-            config = TrainConfig.from_dict(base)
+            config = TrainConfig.from_dict(merge(TrainConfig.load(saved).to_dict(), values))
     return config, args
 
 

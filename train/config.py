@@ -1,8 +1,13 @@
-"""The training configuration: one flat dataclass, resolved once, saved as JSON in the run dir.
+"""The training configuration: one dataclass for every method, resolved once, saved as JSON in
+the run directory.
 
-Command-line ``key=value`` overrides address its fields by name (``epochs=5``,
-``discount=option``); ``env.NAME=VALUE`` goes to the task's config overrides
-(``env.max_ticks=100``). Fields left ``None`` take per-task defaults in :meth:`resolved`.
+The run's fields (task, seed, budget, observations, environments, network size, discount,
+checkpoints) and the hyper-parameters of MAPPO — the paper's method, used by every method but
+one — are top-level fields; the Mac-DQN baseline's own hyper-parameters form the ``dqn`` section
+(:class:`~maopg.learner.macdqn.MacDQNConfig`). Command-line ``key=value`` overrides address
+fields by name (``epochs=5``, ``discount=option``), ``dqn.NAME=VALUE`` the section
+(``dqn.lr=1e-3``) and ``env.NAME=VALUE`` the task's config overrides (``env.max_ticks=100``).
+Fields left ``None`` take per-task defaults in :meth:`TrainConfig.resolved`.
 """
 
 from __future__ import annotations
@@ -14,16 +19,24 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Union, get_args, get_origin, get_type_hints
 
-from maopg.learner import DiscountForm, EnvConfig, PPOConfig
+from maopg.learner import DiscountForm, EnvConfig, MacDQNConfig, PPOConfig
 
+MAC_DQN = "mac-dqn"
+JOINT_Q = "joint-q"
 METHODS: dict[str, tuple[str, str]] = {
     "async": ("continue", "centralized"),
     "sync-cut": ("any", "centralized"),
     "sync-wait": ("all", "centralized"),
     "end2end": ("primitive", "centralized"),
     "partial": ("continue", "partial"),
+    MAC_DQN: ("continue", JOINT_Q),
 }
-"""Method name → (termination strategy, policy kind), DESIGN §6."""
+"""Method name → (termination strategy, policy kind), DESIGN §6. MAPPO trains a conditional
+``centralized`` or ``partial`` policy; Mac-DQN (``joint-q``) a joint Q-network whose policy is
+the conditional argmax."""
+
+SECTIONS: dict[str, type] = {"dqn": MacDQNConfig}
+"""Nested config sections: name → dataclass (addressed as ``name.field=value``)."""
 
 TASK_DEFAULTS: dict[str, dict[str, Any]] = {
     # The paper's batch sizes in low-level samples (TD 200, WF 2000); budgets cover its curves.
@@ -72,12 +85,18 @@ class TrainConfig:
     layers: int = 2
     """Depth of the encoders' MLPs."""
 
+    dqn: MacDQNConfig = field(default_factory=MacDQNConfig)
+    """Mac-DQN's hyper-parameters (``--method mac-dqn`` only)."""
+
     checkpoint_every: int = 10
     """Iterations between checkpoints (one is also written at the end)."""
     torch_threads: int = 1
     """``torch.set_num_threads`` (0 = torch's default). One thread is fastest for the small
     state-vector networks and avoids oversubscribing the cores the environments use."""
     progress: bool = True
+    video: bool = True
+    """Record a greedy rollout of the trained policy (seed 0) to ``rollout.mp4`` at the end
+    (~45 s on Water Filling; ``video=false`` skips it, as the reproduction grid does)."""
     run_dir: str | None = None
     """Default: ``runs/<task>/<method>/seed<seed>``."""
     env_overrides: dict[str, Any] = field(default_factory=dict)
@@ -108,6 +127,7 @@ class TrainConfig:
         for key in ("total_samples", "batch_ticks", "num_envs", "epochs", "checkpoint_every"):
             if getattr(cfg, key) < 1:
                 raise ValueError(f"{key} must be >= 1, got {getattr(cfg, key)}")
+        cfg.dqn.validate()
         return cfg
 
     def ppo(self) -> PPOConfig:
@@ -128,13 +148,25 @@ class TrainConfig:
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)
 
+    def flat(self) -> dict[str, Any]:
+        """:meth:`to_dict` with section fields named as on the command line (``dqn.lr``)."""
+        flat: dict[str, Any] = {}
+        for key, value in self.to_dict().items():
+            if key in SECTIONS:
+                flat.update({f"{key}.{name}": v for name, v in value.items()})
+            else:
+                flat[key] = value
+        return flat
+
     @staticmethod
     def from_dict(data: dict[str, Any]) -> TrainConfig:
-        names = {f.name for f in dataclasses.fields(TrainConfig)}
-        unknown = sorted(set(data) - names)
-        if unknown:
-            raise ValueError(f"unknown config keys {unknown}")
-        return TrainConfig(**data)
+        """Inverse of :meth:`to_dict`; a missing section (a config saved before it existed)
+        takes its defaults."""
+        values = dict(data)
+        for name, section in SECTIONS.items():
+            if isinstance(values.get(name), dict):
+                values[name] = _build(section, values[name], f"{name}.")
+        return _build(TrainConfig, values, "")
 
     def save(self, path: Path) -> None:
         path.write_text(json.dumps(self.to_dict(), indent=2, sort_keys=True) + "\n")
@@ -142,6 +174,25 @@ class TrainConfig:
     @staticmethod
     def load(path: Path) -> TrainConfig:
         return TrainConfig.from_dict(json.loads(path.read_text()))
+
+
+def _build(cls: type, data: dict[str, Any], prefix: str) -> Any:
+    unknown = sorted(set(data) - {f.name for f in dataclasses.fields(cls)})
+    if unknown:
+        raise ValueError(f"unknown config keys {[prefix + k for k in unknown]}")
+    return cls(**data)
+
+
+def merge(base: dict[str, Any], values: dict[str, Any]) -> dict[str, Any]:
+    """``base`` (a :meth:`TrainConfig.to_dict`) updated by ``values`` (from
+    :func:`parse_overrides`); sections and ``env_overrides`` are updated key by key."""
+    merged = dict(base)
+    for key, value in values.items():
+        if isinstance(value, dict) and isinstance(merged.get(key), dict):
+            merged[key] = {**merged[key], **value}
+        else:
+            merged[key] = value
+    return merged
 
 
 def _parse_value(text: str, annotation: Any, key: str) -> Any:
@@ -169,25 +220,39 @@ def _parse_value(text: str, annotation: Any, key: str) -> Any:
 
 
 def parse_overrides(items: list[str]) -> dict[str, Any]:
-    """``["epochs=5", "env.max_ticks=100"]`` → typed field values (``env.*`` under
-    ``env_overrides``, parsed as JSON where possible, else kept as strings)."""
-    hints = get_type_hints(TrainConfig)
-    fields = {f.name for f in dataclasses.fields(TrainConfig)} - {"env_overrides"}
+    """``["epochs=5", "dqn.lr=1e-3", "env.max_ticks=100"]`` → typed field values, sections as
+    dicts (``{"epochs": 5, "dqn": {"lr": 0.001}, "env_overrides": {"max_ticks": 100}}``; task
+    settings are parsed as JSON where possible, else kept as strings)."""
     values: dict[str, Any] = {}
-    env: dict[str, Any] = {}
     for item in items:
         key, sep, text = item.partition("=")
         if not sep:
             raise ValueError(f"override {item!r} is not of the form key=value")
-        if key.startswith("env."):
+        section, dot, name = key.partition(".")
+        if not dot:
+            values[key] = _parse_field(TrainConfig, key, text, "")
+        elif section == "env":
+            env = values.setdefault("env_overrides", {})
             try:
-                env[key[4:]] = json.loads(text)
+                env[name] = json.loads(text)
             except json.JSONDecodeError:
-                env[key[4:]] = text
-        elif key in fields:
-            values[key] = _parse_value(text, hints[key], key)
+                env[name] = text
+        elif section in SECTIONS:
+            values.setdefault(section, {})[name] = _parse_field(
+                SECTIONS[section], name, text, f"{section}."
+            )
         else:
-            raise ValueError(f"unknown config key {key!r}; known: {sorted(fields)}")
-    if env:
-        values["env_overrides"] = env
+            raise ValueError(f"unknown config section {section!r} in {item!r}")
     return values
+
+
+def _parse_field(cls: type, name: str, text: str, prefix: str) -> Any:
+    hints = get_type_hints(cls)
+    fields = sorted(
+        f.name
+        for f in dataclasses.fields(cls)
+        if f.name not in SECTIONS and f.name != "env_overrides"
+    )
+    if name not in fields:
+        raise ValueError(f"unknown config key {prefix + name!r}; known: {fields}")
+    return _parse_value(text, hints[name], prefix + name)

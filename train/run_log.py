@@ -12,7 +12,7 @@ import math
 from pathlib import Path
 from typing import Any
 
-COLUMNS = (
+SHARED_COLUMNS = (
     "iteration",
     "samples",
     "option_steps",
@@ -21,21 +21,29 @@ COLUMNS = (
     "episode_length",
     "success_rate",
     "option_step_reward",
+)
+"""What every method reports first. ``episode_return`` (mean return of the episodes that ended
+in the iteration, NaN if none) is the primary metric; ``option_step_reward`` (mean summed reward
+per option step of the batch) is the paper's metric — the two are different quantities and must
+not be compared."""
+
+TIMING_COLUMNS = ("samples_per_s", "wall_time")
+"""Columns that depend on the machine, not on the seed (excluded from determinism checks)."""
+
+MAPPO_COLUMNS = (
+    *SHARED_COLUMNS,
     "policy_loss",
     "value_loss",
     "entropy",
     "approx_kl",
     "clip_fraction",
     "explained_variance",
-    "samples_per_s",
-    "wall_time",
+    *TIMING_COLUMNS,
 )
-"""``episode_return`` (mean return of the episodes that ended in the iteration, NaN if none) is
-the primary metric; ``option_step_reward`` (mean summed reward per option step of the batch) is
-the paper's metric — the two are different quantities and must not be compared."""
 
-TIMING_COLUMNS = ("samples_per_s", "wall_time")
-"""Columns that depend on the machine, not on the seed (excluded from determinism checks)."""
+MACDQN_COLUMNS = (*SHARED_COLUMNS, "loss", "q_mean", "epsilon", "updates", *TIMING_COLUMNS)
+"""``loss``/``q_mean`` average the iteration's gradient steps (NaN if none), ``epsilon`` is the
+exploration rate at the iteration's end, ``updates`` the number of gradient steps so far."""
 
 
 def _format(value: Any) -> str:
@@ -45,14 +53,21 @@ def _format(value: Any) -> str:
 
 
 class RunLog:
-    """Appends one row per iteration to ``metrics.csv`` and mirrors it to TensorBoard."""
+    """Appends one row per iteration to ``metrics.csv`` and mirrors it to TensorBoard.
 
-    def __init__(self, run_dir: Path, resume_iteration: int | None = None) -> None:
+    ``columns`` are the method's (:data:`MAPPO_COLUMNS`, :data:`MACDQN_COLUMNS`): the first two,
+    iteration and samples, index the rows; the rest become TensorBoard scalars over samples.
+    """
+
+    def __init__(
+        self, run_dir: Path, columns: tuple[str, ...], resume_iteration: int | None = None
+    ) -> None:
         from torch.utils.tensorboard import SummaryWriter
 
+        self.columns = columns
         self.path = run_dir / "metrics.csv"
         if resume_iteration is None or not self.path.exists():
-            self.path.write_text(",".join(COLUMNS) + "\n")
+            self.path.write_text(",".join(columns) + "\n")
         else:
             kept = [
                 r
@@ -60,7 +75,7 @@ class RunLog:
                 if None not in r.values() and int(r["iteration"]) <= resume_iteration
             ]
             with self.path.open("w", newline="") as handle:
-                writer = csv.DictWriter(handle, fieldnames=COLUMNS)
+                writer = csv.DictWriter(handle, fieldnames=columns)
                 writer.writeheader()
                 writer.writerows(kept)
         purge = None if resume_iteration is None else resume_iteration + 1
@@ -68,9 +83,9 @@ class RunLog:
 
     def write(self, row: dict[str, Any]) -> None:
         with self.path.open("a", newline="") as handle:
-            handle.write(",".join(_format(row[c]) for c in COLUMNS) + "\n")
+            handle.write(",".join(_format(row[c]) for c in self.columns) + "\n")
         step = int(row["samples"])
-        for key in COLUMNS[2:]:
+        for key in self.columns[2:]:
             value = float(row[key])
             if not math.isnan(value):
                 self.tb.add_scalar(f"train/{key}", value, step)

@@ -1,5 +1,6 @@
-"""MAPPO over option-level trajectories: rollout storage, GAE, value normalisation, the PPO
-update, rollout sampling (serial or ``spawn`` workers) and atomic checkpoints."""
+"""The learners: MAPPO over option-level trajectories (rollout storage, GAE, value
+normalisation, the PPO update) and the Mac-DQN baseline, on one rollout sampler (serial or
+``spawn`` workers), with atomic checkpoints."""
 
 from maopg.learner.buffer import Rollout, TrainBatch
 from maopg.learner.checkpoint import (
@@ -10,6 +11,7 @@ from maopg.learner.checkpoint import (
     save_checkpoint,
 )
 from maopg.learner.gae import DiscountForm, compute_gae
+from maopg.learner.macdqn import JointQNetwork, MacDQN, MacDQNConfig, SqueezedReplay
 from maopg.learner.mappo import MAPPO, PPOConfig
 from maopg.learner.sampler import EnvConfig, Sampler, StepResult, episode_seed
 from maopg.learner.value_norm import ValueNorm
@@ -19,9 +21,13 @@ __all__ = [
     "CheckpointError",
     "DiscountForm",
     "EnvConfig",
+    "JointQNetwork",
+    "MacDQN",
+    "MacDQNConfig",
     "PPOConfig",
     "Rollout",
     "Sampler",
+    "SqueezedReplay",
     "StepResult",
     "TrainBatch",
     "ValueNorm",

@@ -44,14 +44,18 @@ from maopg.policy import (
 )
 
 
-@dataclass
+@dataclass(frozen=True)
 class MacDQNConfig:
-    """Learner hyper-parameters. Durations are in low-level ticks (samples), as everywhere here."""
+    """Mac-DQN's own hyper-parameters (the ``dqn`` section of ``train``'s config). Durations are
+    in low-level ticks (samples), as everywhere here.
 
-    gamma: float = 0.99
-    """Per-tick discount; bootstraps use ``gamma**k``. MacDeepMARL's TD command used 1.0 with a
-    per-macro-step discount; 0.99 per tick is the project-wide value (DESIGN §5) so Mac-DQN and
-    MAPPO optimise the same objective."""
+    The discount and the network size are not here: they are the run's ``gamma`` (which also
+    discounts the environment's rewards, so the two cannot disagree), ``hidden`` and ``layers``,
+    shared with MAPPO so both methods optimise the same objective with the same encoders
+    (DESIGN §5; MacDeepMARL's TD command used ``--rnn_h_size=128`` too, and γ = 1.0 per macro-step
+    where we use 0.99 per tick).
+    """
+
     lr: float = 6e-4
     """Adam step size: MacDeepMARL TD command ``--l_rate=0.0006``."""
     batch_size: int = 64
@@ -83,10 +87,6 @@ class MacDQNConfig:
     value loss (DESIGN §5), so ±100 delivery rewards do not dominate the gradient."""
     max_grad_norm: float = 10.0
     """Gradient-norm clip. Chosen here (original: off unless ``--g_clip_norm``), as MAPPO."""
-    hidden: int = 128
-    """Encoder and GRU width: MacDeepMARL TD command ``--rnn_h_size=128``."""
-    layers: int = 2
-    """Encoder MLP depth (the original: 2 layers before its LSTM)."""
     recurrent: bool = False
     """GRU over the option-level history (the original used an LSTM over squeezed episodes).
     Off by default: the joint observation of Tool Delivery is nearly Markov and the feed-forward
@@ -398,11 +398,21 @@ def _obs(batch: dict[str, Tensor], prefix: str = "") -> ObsBatch:
 class MacDQN:
     """Online and target Q-networks, Adam, and the conditional double-Q update."""
 
-    def __init__(self, spec: EnvSpec, config: MacDQNConfig, use_images: bool | None = None):
+    def __init__(
+        self,
+        spec: EnvSpec,
+        config: MacDQNConfig,
+        *,
+        gamma: float = 0.99,
+        hidden: int = 128,
+        layers: int = 2,
+        use_images: bool | None = None,
+    ) -> None:
         config.validate()
         self.config = config
+        self.gamma = gamma
         self.option_counts = spec.option_counts
-        kw = {"hidden": config.hidden, "layers": config.layers, "use_images": use_images}
+        kw = {"hidden": hidden, "layers": layers, "use_images": use_images}
         self.q = JointQNetwork(spec, recurrent=config.recurrent, **kw)
         self.target = JointQNetwork(spec, recurrent=config.recurrent, **kw)
         self.target.load_state_dict(self.q.state_dict())
@@ -466,7 +476,7 @@ class MacDQN:
             next_running=batch["next_running"],
             next_available=batch["next_available"],
             option_counts=self.option_counts,
-            gamma=self.config.gamma,
+            gamma=self.gamma,
         )
 
     def _sequence_values(self, seq: dict[str, Tensor]) -> tuple[Tensor, Tensor]:

@@ -294,6 +294,25 @@ class Sampler:
         self._envs.close()
 
     # ------------------------------------------------------------------ collection
+    def step(self, joints: np.ndarray) -> list[StepResult]:
+        """Apply one joint option per environment (``int64 [E, N]``), in lockstep.
+
+        An environment whose episode ends is reset with its next episode seed at once; the
+        result's ``final`` then holds the episode's last point. The returned points become
+        :attr:`points`, and the options are logged for :meth:`state_dict`, so a learner that
+        steps the environments itself (Mac-DQN) keeps the same seeds and exact resume.
+        """
+        next_seeds = [episode_seed(self.seed, e, j + 1) for e, j in enumerate(self.episode)]
+        results: list[StepResult] = self._envs.call_split("step", joints, next_seeds)
+        for e, result in enumerate(results):
+            if result.final is not None:
+                self.episode[e] += 1
+                self.actions[e] = []
+            else:
+                self.actions[e].append(joints[e].copy())
+        self.points = [r.point for r in results]
+        return results
+
     @torch.no_grad()
     def collect(
         self,
@@ -320,13 +339,9 @@ class Sampler:
             dist = policy.distribution(obs, choosing, running, available)
             joint = dist.sample(generator)
             log_prob = dist.log_prob(joint)
-            joints = joint.numpy()
-            next_seeds = [episode_seed(self.seed, e, j + 1) for e, j in enumerate(self.episode)]
-            results: list[StepResult] = self._envs.call_split("step", joints, next_seeds)
-
+            results = self.step(joint.numpy())
             outcomes = [r.outcome for r in results]
-            next_points = [r.point for r in results]
-            next_obs = ObsBatch.from_decision_points(next_points)
+            next_obs = ObsBatch.from_decision_points(self.points)
             next_values = critic(next_obs)
             bootstrap = next_values.clone()
             truncated = [e for e, o in enumerate(outcomes) if o.truncated]
@@ -348,13 +363,9 @@ class Sampler:
                 truncated=np.array([o.truncated for o in outcomes]),
                 next_value=bootstrap,
             )
-            for e, result in enumerate(results):
-                if result.final is not None:
-                    rollout.episodes.append(dict(result.final.info["episode"]))
-                    self.episode[e] += 1
-                    self.actions[e] = []
-                else:
-                    self.actions[e].append(joints[e].copy())
+            rollout.episodes += [
+                dict(r.final.info["episode"]) for r in results if r.final is not None
+            ]
             ticks += int(sum(o.duration for o in outcomes))
-            self.points, obs, values = next_points, next_obs, next_values
+            obs, values = next_obs, next_values
         return rollout

@@ -15,13 +15,22 @@ import pytest
 from eval.__main__ import main
 from eval.evaluate import evaluate
 from eval.plots import curve_table, plot_all
-from eval.policy import NetworkPolicy, load_trained
-from eval.reproduce import Cell, cell_state, reproduce, run_grid
+from eval.policy import NetworkPolicy, QNetworkPolicy, load_trained
+from eval.reproduce import Cell, cell_state, reproduce, run_grid, trainable
 from eval.runs import discover_runs, mean_curve, peak, samples_to_threshold, trailing_mean
 from eval.tables import peak_table, threshold_table
 from train.__main__ import main as train_main
 
-TINY = ["batch_ticks=60", "num_envs=2", "epochs=2", "checkpoint_every=1", "env.max_ticks=40"]
+TINY = [
+    "batch_ticks=60",
+    "num_envs=2",
+    "epochs=2",
+    "checkpoint_every=1",
+    "env.max_ticks=40",
+    "video=false",
+    "dqn.learning_starts=60",
+    "dqn.train_every=20",
+]
 NAN = math.nan
 
 
@@ -154,6 +163,34 @@ def test_evaluate_a_checkpoint(trained_run, tmp_path, capsys):
     assert "| async seed0 @" in capsys.readouterr().out
     saved = json.loads(out.read_text())
     assert saved["episodes"] == 2 and len(saved["per_episode"]["returns"]) == 2
+
+
+def test_evaluate_a_mac_dqn_checkpoint_made_by_the_grid(tmp_path, capsys):
+    assert trainable("mac-dqn") and not trainable("no-such-method")
+    cell = Cell("tool_delivery", "mac-dqn", 0)
+    grid = dict(tasks=["tool_delivery"], methods=["mac-dqn"], seeds=[0], in_process=True)
+    outcomes = run_grid(tmp_path, overrides=[*TINY, "total_samples=120"], **grid)
+    assert outcomes == {cell: "done"}
+    run_dir = cell.run_dir(tmp_path.resolve())
+    assert not (run_dir / "rollout.mp4").exists()  # the grid records no videos
+
+    trained = load_trained(run_dir)
+    assert trained.config.method == "mac-dqn" and trained.samples >= 120
+    greedy = trained.actor(greedy=True)
+    assert isinstance(greedy, QNetworkPolicy) and greedy.epsilon == 0.0
+    env = trained.make_env(0)
+    try:
+        first = evaluate(env, greedy, 3, seed=5)
+        again = evaluate(env, trained.actor(greedy=True), 3, seed=5)
+        explore = evaluate(env, trained.actor(greedy=False, seed=1), 3, seed=5)
+    finally:
+        env.close()
+    assert first.returns == again.returns and first.lengths == again.lengths
+    assert all(0 < n <= 40 for n in first.lengths + explore.lengths)
+    assert trained.actor(greedy=False).epsilon == trained.config.dqn.eps_end
+
+    main(["evaluate", "--checkpoint", str(run_dir), "--episodes", "2", "--sample"])
+    assert "| mac-dqn seed0 @" in capsys.readouterr().out
 
 
 def test_video_of_a_checkpoint(trained_run, tmp_path, capsys):

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import csv
 import itertools
 import math
 import os
@@ -27,9 +26,12 @@ from maopg.learner.macdqn import (
     epsilon_greedy,
     point_arrays,
 )
-from maopg.learner.macdqn_trainer import MacDQNTrainConfig, train_macdqn
 from maopg.policy import ObsBatch, ravel_joint
 from maopg.rollout import RandomPolicy, run_episode
+from train.__main__ import main as train_main
+from train.config import TrainConfig
+from train.run_log import TIMING_COLUMNS, read_metrics
+from train.trainer import train
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -213,7 +215,7 @@ def test_recurrent_training_targets_match_step_by_step_acting():
     replay, _, _ = _fill_replay(3, seed=2)
     torch.manual_seed(0)
     spec = make_env("tool_delivery").spec
-    learner = MacDQN(spec, MacDQNConfig(recurrent=True, hidden=32, batch_episodes=3))
+    learner = MacDQN(spec, MacDQNConfig(recurrent=True, batch_episodes=3), hidden=32)
     with torch.no_grad():
         learner.target.head.weight.mul_(-0.5)  # make target and online nets differ
     seq = replay.sample_episodes(3, torch.Generator().manual_seed(5))
@@ -256,39 +258,43 @@ def test_recurrent_training_targets_match_step_by_step_acting():
 
 
 # ---------------------------------------------------------------------------- training runs
-TINY = {
-    "total_samples": 1200,
-    "batch_ticks": 100,
-    "num_envs": 2,
-    "learning_starts": 200,
-    "train_every": 10,
-    "target_update_every": 300,
-    "checkpoint_every": 2,
-    "hidden": 32,
-    "progress": False,
-    "torch_threads": 1,
-}
+TINY = [
+    "--method",
+    "mac-dqn",
+    "--total-samples",
+    "1200",
+    "batch_ticks=100",
+    "num_envs=2",
+    "checkpoint_every=2",
+    "hidden=32",
+    "progress=false",
+    "video=false",
+    "torch_threads=1",
+    "dqn.learning_starts=200",
+    "dqn.train_every=10",
+    "dqn.target_update_every=300",
+]
+"""A ``python -m train`` Mac-DQN run of 12 iterations with updates and target syncs."""
 
 
 def _metrics(run_dir: Path) -> list[dict[str, str]]:
-    with (run_dir / "metrics.csv").open() as handle:
-        rows = list(csv.DictReader(handle))
-    return [{k: v for k, v in r.items() if k not in ("samples_per_s", "wall_time")} for r in rows]
+    return [
+        {k: v for k, v in r.items() if k not in TIMING_COLUMNS}
+        for r in read_metrics(run_dir / "metrics.csv")
+    ]
 
 
 @pytest.mark.parametrize("recurrent", [False, True])
 def test_killed_run_resumes_bit_for_bit(tmp_path, recurrent):
-    cfg = MacDQNTrainConfig(**TINY, recurrent=recurrent)
-    whole = train_macdqn(cfg, tmp_path / "whole")
-    assert whole["updates"] > 0
+    args = [*TINY, f"dqn.recurrent={recurrent}"]
+    whole = tmp_path / "whole"
+    train_main([*args, "--run-dir", str(whole)])
+    assert int(_metrics(whole)[-1]["updates"]) > 0
 
     killed = tmp_path / "killed"
-    script = (
-        "import maopg\n"
-        "from maopg.learner.macdqn_trainer import MacDQNTrainConfig, train_macdqn\n"
-        f"train_macdqn(MacDQNTrainConfig(**{TINY!r}, recurrent={recurrent}), {str(killed)!r})\n"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "train", *args, "--run-dir", str(killed)], cwd=REPO
     )
-    proc = subprocess.Popen([sys.executable, "-c", script], cwd=REPO)
     try:
         deadline = time.monotonic() + 120
         while not (killed / "checkpoint.pt").exists():
@@ -298,40 +304,46 @@ def test_killed_run_resumes_bit_for_bit(tmp_path, recurrent):
         os.kill(proc.pid, signal.SIGKILL)
     finally:
         proc.wait()
-    saved = load_checkpoint(killed / "checkpoint.pt")["counters"]["iteration"]
-    assert saved < whole["iterations"], "killed too late to exercise resume"
+    saved = load_checkpoint(killed / "checkpoint.pt")["iteration"]
+    assert saved < len(_metrics(whole)), "killed too late to exercise resume"
 
-    resumed = train_macdqn(cfg, killed, resume=True)
-    assert resumed["samples"] == whole["samples"]
-    assert _metrics(killed) == _metrics(tmp_path / "whole")
-    a = load_checkpoint(killed / "final.pt")["q_network"]
-    b = load_checkpoint(tmp_path / "whole" / "final.pt")["q_network"]
+    train_main(["--resume", "--run-dir", str(killed), "progress=false"])
+    assert _metrics(killed) == _metrics(whole)
+    a = load_checkpoint(killed / "final.pt")["q"]
+    b = load_checkpoint(whole / "final.pt")["q"]
     assert all(torch.equal(a[k], b[k]) for k in a)
 
 
 def test_resume_rejects_a_changed_config(tmp_path):
-    train_macdqn(MacDQNTrainConfig(**{**TINY, "total_samples": 200}), tmp_path / "run")
-    with pytest.raises(ValueError, match="lr"):
-        train_macdqn(MacDQNTrainConfig(**{**TINY, "lr": 1e-3}), tmp_path / "run", resume=True)
+    run = ["--run-dir", str(tmp_path / "run")]
+    train_main([*TINY, *run, "--total-samples", "200"])
+    with pytest.raises(ValueError, match=r"dqn\.lr \(saved 0\.0006, given 0\.001\)"):
+        train_main([*TINY, *run, "--resume", "dqn.lr=1e-3"])
     with pytest.raises(FileExistsError):
-        train_macdqn(MacDQNTrainConfig(**TINY), tmp_path / "run")
+        train_main([*TINY, *run])
 
 
 @pytest.mark.slow
 def test_learns_to_beat_the_random_policy(tmp_path):
-    """Seeded smoke run on Tool Delivery (state observations): the greedy Q policy's mean
-    return beats the uniform-random policy's, measured here on the same environment."""
+    """Seeded smoke run on Tool Delivery (state observations): the Mac-DQN agent's mean return
+    over its last 20 iterations beats the uniform-random policy's, measured here on the same
+    environment."""
     env = make_env("tool_delivery", seed=123)
     try:
         random_returns = [run_episode(env, RandomPolicy(env.spec, 123)).ret for _ in range(60)]
     finally:
         env.close()
-    result = train_macdqn(SMOKE, tmp_path / "smoke")
-    returns = np.array(result["last_returns"])
+    config = TrainConfig(
+        method="mac-dqn",
+        seed=0,
+        total_samples=30_000,
+        progress=False,
+        video=False,
+        torch_threads=1,
+        run_dir=str(tmp_path / "smoke"),
+    )
+    returns = np.array([float(r["episode_return"]) for r in _metrics(train(config))])
     late = float(np.nanmean(returns[-20:]))
     random_mean = float(np.mean(random_returns))
     print(f"Mac-DQN last 20 iterations {late:.1f} vs random {random_mean:.1f}")
     assert late > random_mean + 100.0
-
-
-SMOKE = MacDQNTrainConfig(seed=0, total_samples=30_000, progress=False, torch_threads=1)
