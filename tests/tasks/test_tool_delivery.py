@@ -181,3 +181,41 @@ def test_random_policy_is_reproducible() -> None:
     a = [run_episode(env, RandomPolicy(env.spec, 7), seed=11).rewards for _ in range(2)]
     assert a[0] == a[1]
     env.close()
+
+
+def joint_observation_policy():
+    """A scripted policy that reads the *joint* observation (Turtlebot locations), as a
+    centralized policy does, instead of the Fetch's own waiting bits — which under the sync
+    strategies never show a waiting Turtlebot, since every GetTool has ended at a sync."""
+    searched = [0]
+
+    def act(point) -> np.ndarray:
+        if point.ticks == 0:
+            searched[0] = 0
+        joint = point.running.copy()
+        carrying = [point.vectors[w][8:11].any() for w in (0, 1)]
+        at_desk = [point.vectors[w][2] > 0 for w in (0, 1)]
+        staged = int(np.argmax(point.vectors[2][:3]))
+        for w in (0, 1):
+            if point.choosing[w]:
+                joint[w] = GO_WS if carrying[w] else GET_TOOL
+        if point.choosing[2]:
+            ready = [w for w in (0, 1) if at_desk[w] and not carrying[w] and joint[w] == GET_TOOL]
+            if staged and ready:
+                joint[2] = PASS0 + ready[0]
+            elif searched[0] < 3 and staged < 2:
+                joint[2] = SEARCH0 + searched[0]
+                searched[0] += 1
+            else:
+                joint[2] = WAIT
+        return joint
+
+    return act
+
+
+@pytest.mark.parametrize("strategy", ["continue", "any", "all"])
+def test_every_strategy_can_solve_the_task(strategy: str) -> None:
+    env = new_env(strategy)
+    result = run_episode(env, joint_observation_policy())
+    assert result.solved and result.ret > 200, (strategy, result.ret)
+    env.close()
