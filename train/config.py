@@ -67,18 +67,19 @@ class TrainConfig:
     gae_lambda: float = 0.95
     discount: str = DiscountForm.SMDP.value
     """``smdp`` (γ^k per option step, default) or ``option`` (the paper's γ per option step)."""
-    epochs: int = 10
-    num_minibatches: int = 1
-    clip: float = 0.2
-    value_clip: float = 0.2
-    huber_delta: float = 10.0
-    ent_coef: float = 0.01
-    value_coef: float = 1.0
-    lr: float = 5e-4
-    critic_lr: float = 5e-4
-    adam_eps: float = 1e-5
-    max_grad_norm: float = 10.0
-    normalize_advantages: bool = True
+    # MAPPO's hyper-parameters, flat so the CLI reads ``epochs=5``; defaults live in PPOConfig.
+    epochs: int = PPOConfig.epochs
+    num_minibatches: int = PPOConfig.num_minibatches
+    clip: float = PPOConfig.clip
+    value_clip: float = PPOConfig.value_clip
+    huber_delta: float = PPOConfig.huber_delta
+    ent_coef: float = PPOConfig.ent_coef
+    value_coef: float = PPOConfig.value_coef
+    lr: float = PPOConfig.lr
+    critic_lr: float = PPOConfig.critic_lr
+    adam_eps: float = PPOConfig.adam_eps
+    max_grad_norm: float = PPOConfig.max_grad_norm
+    normalize_advantages: bool = PPOConfig.normalize_advantages
     value_norm: bool = True
     hidden: int = 128
     """Width of the encoders' MLP layers (actor and critic)."""
