@@ -522,9 +522,6 @@ class ToolDelivery(SceneTask):
             "delivered": list(s.delivered),
         }
 
-    def solved(self) -> bool:
-        return self.terminated()
-
 
 # ---------------------------------------------------------------------------- scripted policy
 def scripted_policy(spec: EnvSpec):
