@@ -14,7 +14,9 @@ from maopg.tasks.tool_delivery import TOOL, WORKSHOP
 
 GO_WS, GO_TR, GET_TOOL = 0, 1, 2
 PASS0, PASS1, SEARCH0, SEARCH1, SEARCH2, WAIT = range(6)
-TRACE = Path(__file__).parents[3] / "shared" / "reference" / "tool_delivery_scripted_trace.csv"
+# The canonical task's scripted episode, tick by tick (measured on MacDeepMARL's
+# ObjSearchDelivery_v4; copied from the project's shared reference material).
+TRACE = Path(__file__).parents[1] / "data" / "tool_delivery_scripted_trace.csv"
 
 
 def new_env(strategy: str = "continue", **overrides):
