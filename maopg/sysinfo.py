@@ -35,6 +35,8 @@ def conditions(gl: bool = True) -> dict[str, str]:
         "torch": torch.__version__,
         "torch_threads": str(torch.get_num_threads()),
         "numpy": np.__version__,
+        # Other processes share the cores: timings taken under load read slower.
+        "load average (1 min) at start": f"{os.getloadavg()[0]:.2f}",
     }
     if gl:
         from maopg.sim.egl_check import check
