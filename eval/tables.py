@@ -18,9 +18,10 @@ DEFAULT_THRESHOLDS: dict[str, float] = {
     # 200 = 77% of the scripted policy's 259 (DESIGN §7): a policy that delivers all three tools
     # with little waste.
     "tool_delivery": 200.0,
-    # Between the paper's async peak (−304 ± 27) and its partially centralized one (−349 ± 51);
-    # revisit once our Water Filling's reward scale has been measured.
-    "water_filling": -350.0,
+    # The scripted heuristic's level: `python -m maopg.rollout --task water_filling --policy
+    # scripted --episodes 10` gives about −2.8e5 (random about −4.5e5). Eq. 6 charges ~−1000
+    # per tick per dry jar, so the paper's −304 (another simulator and metric) is not comparable.
+    "water_filling": -300_000.0,
 }
 
 
