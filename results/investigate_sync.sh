@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
 # Why do sync-cut and sync-wait stay at -150 on Tool Delivery (results/tables.md)? Two probes,
+# also applied to async for a fair comparison,
 # one seed each, resumable (a finished run is skipped): more exploration (entropy 0.05 instead
 # of 0.01), and masking the options that cannot succeed (passes with nothing staged, searches
 # for found tools), which removes most of the -10s a random sync policy collects.
@@ -7,7 +8,7 @@
 set -euo pipefail
 PY=.venv/bin/python
 ROOT=results/investigation/tool_delivery
-for method in sync-cut sync-wait; do
+for method in sync-cut sync-wait async; do
   $PY -m train --task tool_delivery --method "$method" --seed 0 --resume progress=false \
     video=false ent_coef=0.05 --run-dir "$ROOT/$method-ent0.05/seed0"
   $PY -m train --task tool_delivery --method "$method" --seed 0 --resume progress=false \
