@@ -10,6 +10,7 @@ peak and samples-to-threshold tables the results use. The threshold is the one u
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from eval.reproduce import run_grid
@@ -20,6 +21,11 @@ from maopg.sysinfo import markdown
 TASK, METHODS = "tool_delivery", ("async", "mac-dqn")
 
 
+def _stderr(message: str) -> None:
+    """The grid runner's progress goes to stderr, so stdout is the Markdown report."""
+    print(message, file=sys.stderr)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--runs", type=Path, default=Path("results/runs"))
@@ -28,7 +34,7 @@ def main() -> None:
     parser.add_argument("--window", type=int, default=5, help="iterations smoothed")
     args = parser.parse_args()
 
-    run_grid(args.runs, tasks=[TASK], methods=METHODS, seeds=args.seeds)
+    run_grid(args.runs, tasks=[TASK], methods=METHODS, seeds=args.seeds, log=_stderr)
     runs = [
         r for r in discover_runs([args.runs / TASK]) if r.method in METHODS and r.seed in args.seeds
     ]
