@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import json
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol
@@ -80,9 +81,14 @@ def run_episode(
 
 
 def evaluate_reference(
-    task: str, policy: str, episodes: int, seed: int = 0, strategy: str = "continue"
+    task: str,
+    policy: str,
+    episodes: int,
+    seed: int = 0,
+    strategy: str = "continue",
+    overrides: dict[str, object] | None = None,
 ) -> list[EpisodeResult]:
-    env = make_env(task, strategy, seed=seed)
+    env = make_env(task, strategy, seed=seed, overrides=overrides)
     try:
         pol = (
             RandomPolicy(env.spec, seed) if policy == "random" else scripted_policy(task, env.spec)
@@ -99,8 +105,26 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--episodes", type=int, default=10)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--strategy", default="continue")
+    parser.add_argument(
+        "--set",
+        nargs="*",
+        default=[],
+        metavar="KEY=VALUE",
+        help="task config overrides, e.g. turtlebot_robot=diffbot (values parsed as JSON)",
+    )
     args = parser.parse_args(argv)
-    results = evaluate_reference(args.task, args.policy, args.episodes, args.seed, args.strategy)
+    overrides = {}
+    for item in args.set:
+        key, sep, text = item.partition("=")
+        if not sep:
+            parser.error(f"--set {item!r} is not of the form KEY=VALUE")
+        try:
+            overrides[key] = json.loads(text)
+        except json.JSONDecodeError:
+            overrides[key] = text
+    results = evaluate_reference(
+        args.task, args.policy, args.episodes, args.seed, args.strategy, overrides
+    )
     returns = np.array([r.ret for r in results])
     ticks = np.array([r.ticks for r in results])
     solved = np.mean([r.solved for r in results])

@@ -54,6 +54,18 @@ def test_short_rollout_writes_one_frame_per_tick(tmp_path):
     assert np.abs(overview[-1] - overview[0]).mean() > 0.5
 
 
+def test_water_filling_video_shows_both_robots(tmp_path):
+    env = make_env("water_filling", "continue", seed=0, overrides={"max_ticks": 6})
+    try:
+        result = record_episode(env, RandomPolicy(env.spec, 0), tmp_path / "wf.mp4", seed=0)
+    finally:
+        env.close()
+    frames = _read(result.path)
+    assert frames.shape == (7, *result.shape)
+    tiles = frames[:, OVERVIEW_SIZE[0] + CAPTION :].astype(np.int16)
+    assert tiles[0].std() > 10  # the robots' camera tiles are rendered
+
+
 def test_same_seed_gives_the_same_video(tmp_path):
     digests = []
     for name in ("a.mp4", "b.mp4"):

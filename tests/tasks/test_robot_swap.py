@@ -32,3 +32,11 @@ def test_a_robot_registered_from_a_file_is_used_by_name() -> None:
     assert env.spec.agents[1].robot == "my_ground_robot"
     assert env.task.turtlebots[1].position[0] > 3.2
     env.close()
+
+
+def test_the_rollout_cli_swaps_robots_by_config(capsys) -> None:
+    from maopg.rollout import main
+
+    main(["--policy", "scripted", "--episodes", "1", "--set", "turtlebot_robot=diffbot"])
+    out = capsys.readouterr().out
+    assert "solved 100%" in out

@@ -5,12 +5,13 @@ from __future__ import annotations
 import csv
 from pathlib import Path
 
+import mujoco
 import numpy as np
 import pytest
 
 from maopg.env import make_env
 from maopg.rollout import RandomPolicy, evaluate_reference, run_episode, scripted_policy
-from maopg.tasks.tool_delivery import TOOL, WORKSHOP
+from maopg.tasks.tool_delivery import STAGE_OFF, STAGE_ON, TOOL, WORKSHOP
 
 GO_WS, GO_TR, GET_TOOL = 0, 1, 2
 PASS0, PASS1, SEARCH0, SEARCH1, SEARCH2, WAIT = range(6)
@@ -40,8 +41,25 @@ def test_scripted_episode_matches_the_canonical_trace() -> None:
                 name = env.spec.agents[i].option_names[point.running[i]]
                 ends.append((point.ticks, env.spec.agent_names[i], name))
 
+    rewards: list[float] = []
+    stages: list[int] = []
+
+    def on_tick(env_, reward: float) -> None:
+        rewards.append(reward)
+        stages.append(env_.task.state.stage)
+
+    env.add_tick_listener(on_tick)
     result = run_episode(env, scripted_policy("tool_delivery", env.spec), on_step=on_step)
     assert result.solved and result.ret == 259.0 and result.ticks == 41
+    # Three deliveries of +100 on top of -1 per tick; the human advances when a stage's
+    # 18 ticks are over and its tool has arrived (stage 1 on the first delivery, tick 19).
+    assert sorted(set(rewards)) == [-1.0, 99.0] and rewards.count(99.0) == 3
+    assert stages[18] == 1 and stages.index(2) == 18 + 18
+    # The stage bar in the scene (visible in the overview camera) lights up to the stage.
+    model = env.task.scene.model
+    for k, lit in enumerate((True, True, True, False)):
+        gid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, f"human/stage{k}")
+        assert tuple(model.geom_rgba[gid]) == pytest.approx(STAGE_ON if lit else STAGE_OFF)
     # Every option ending of the canonical scripted episode, within one tick (physics).
     agents = {"T0": "turtlebot0", "T1": "turtlebot1", "Fetch": "fetch"}
     with TRACE.open() as f:
