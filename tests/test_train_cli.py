@@ -81,6 +81,18 @@ def test_overrides_are_typed_and_checked():
         TrainConfig(method="nope").resolved()
 
 
+@pytest.mark.parametrize(("task", "images"), [("tool_delivery", True), ("water_filling", False)])
+def test_each_task_also_trains_from_its_other_observation_kind(tmp_path, task, images):
+    """Tool Delivery defaults to state vectors and Water Filling to RGB; both switch."""
+    run_dir = tmp_path / "run"
+    flag = "--images" if images else "--no-images"
+    args = ["--task", task, "--method", "async", flag, "--total-samples", "120"]
+    main([*args, "--run-dir", str(run_dir), *TINY, "env.max_ticks=40"])
+    final = load_checkpoint(run_dir / "final.pt")
+    assert final["config"]["images"] is images
+    assert int(_rows(run_dir)[-1]["samples"]) >= 120
+
+
 @pytest.mark.parametrize("method", sorted(METHODS))
 @pytest.mark.parametrize("task", sorted(TASK_DEFAULTS))
 def test_every_method_trains_a_tiny_budget(tmp_path, task, method):
