@@ -6,6 +6,7 @@ import numpy as np
 
 from maopg.env import make_env
 from maopg.rollout import run_episode, scripted_policy
+from maopg.sim import robots
 from maopg.sim.robots import get_robot, register_robot
 
 
@@ -22,7 +23,9 @@ def test_diffbot_replaces_the_turtlebots_through_the_task_config() -> None:
     env.close()
 
 
-def test_a_robot_registered_from_a_file_is_used_by_name() -> None:
+def test_a_robot_registered_from_a_file_is_used_by_name(monkeypatch) -> None:
+    # A private copy of the registry, so the new name does not outlive this test.
+    monkeypatch.setattr(robots, "_REGISTRY", dict(robots._REGISTRY))
     diffbot = get_robot("diffbot")
     register_robot("my_ground_robot", diffbot.mjcf, diffbot.adapter, diffbot.constants)
     env = make_env("tool_delivery", overrides={"turtlebot_robot": "my_ground_robot"})
