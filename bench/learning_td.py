@@ -12,21 +12,15 @@ from __future__ import annotations
 
 import argparse
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
 
-from eval.reproduce import run_grid
+from eval.reproduce import log_to_stderr, run_grid
 from eval.runs import PAPER_METRIC, RETURN, load_run, samples_to_threshold
 from maopg.sysinfo import markdown
 
 TASK, METHOD = "tool_delivery", "async"
-
-
-def _stderr(message: str) -> None:
-    """The grid runner's progress goes to stderr, so stdout is the Markdown report."""
-    print(message, file=sys.stderr)
 
 
 def main() -> None:
@@ -38,7 +32,7 @@ def main() -> None:
     parser.add_argument("--window", type=int, default=25, help="iterations (200 ticks each)")
     args = parser.parse_args()
 
-    run_grid(args.runs, tasks=[TASK], methods=[METHOD], seeds=args.seeds, log=_stderr)
+    run_grid(args.runs, tasks=[TASK], methods=[METHOD], seeds=args.seeds, log=log_to_stderr)
     print("### `async` on Tool Delivery, state observations (`bench/learning_td.py`)\n")
     print(markdown(gl=False))
     print(

@@ -10,20 +10,14 @@ peak and samples-to-threshold tables the results use. The threshold is the one u
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
-from eval.reproduce import run_grid
+from eval.reproduce import log_to_stderr, run_grid
 from eval.runs import discover_runs
 from eval.tables import peak_table, threshold_table
 from maopg.sysinfo import markdown
 
 TASK, METHODS = "tool_delivery", ("async", "mac-dqn")
-
-
-def _stderr(message: str) -> None:
-    """The grid runner's progress goes to stderr, so stdout is the Markdown report."""
-    print(message, file=sys.stderr)
 
 
 def main() -> None:
@@ -34,7 +28,7 @@ def main() -> None:
     parser.add_argument("--window", type=int, default=5, help="iterations smoothed")
     args = parser.parse_args()
 
-    run_grid(args.runs, tasks=[TASK], methods=METHODS, seeds=args.seeds, log=_stderr)
+    run_grid(args.runs, tasks=[TASK], methods=METHODS, seeds=args.seeds, log=log_to_stderr)
     runs = [
         r for r in discover_runs([args.runs / TASK]) if r.method in METHODS and r.seed in args.seeds
     ]

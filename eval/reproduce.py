@@ -106,6 +106,11 @@ def _launch(cell: Cell, run_dir: Path, overrides: Sequence[str], in_process: boo
     return "done" if proc.returncode == 0 else f"failed: exit code {proc.returncode}"
 
 
+def log_to_stderr(message: str) -> None:
+    """A ``log`` for :func:`run_grid` that keeps stdout free (for scripts printing a report)."""
+    print(message, file=sys.stderr)
+
+
 def run_grid(
     runs_root: str | Path,
     *,
