@@ -195,3 +195,14 @@ def test_video_of_the_trained_policy(tmp_path, method):
         reader.close()
     assert len(frames) == episode.ticks + 1 and 0 < episode.ticks <= 30
     assert len(set(frames)) == 1 and frames[0][0] >= 64 and frames[0][2] == 3
+
+
+def test_a_users_registered_task_trains_with_generic_defaults(tmp_path, monkeypatch):
+    import maopg.tasks as tasks
+
+    monkeypatch.setattr(tasks, "_TASKS", dict(tasks._TASKS))
+    tasks.register_task("my_delivery", "maopg.tasks.tool_delivery:ToolDelivery")
+    config = TrainConfig(task="my_delivery", total_samples=100, run_dir=str(tmp_path / "r"))
+    assert config.resolved().batch_ticks == 1000
+    with pytest.raises(ValueError, match="unknown task 'nope'"):
+        TrainConfig(task="nope").resolved()

@@ -12,7 +12,8 @@ import sys
 from pathlib import Path
 
 import maopg  # noqa: F401  (sets MUJOCO_GL before anything imports mujoco)
-from train.config import METHODS, TASK_DEFAULTS, TrainConfig, merge, parse_overrides
+from maopg.tasks import task_names
+from train.config import METHODS, TrainConfig, merge, parse_overrides
 
 
 def parse_args(argv: list[str] | None = None) -> tuple[TrainConfig, argparse.Namespace]:
@@ -23,7 +24,7 @@ def parse_args(argv: list[str] | None = None) -> tuple[TrainConfig, argparse.Nam
         "discount=option, num_workers=2, video=false), as dqn.key=value a Mac-DQN "
         "hyper-parameter (dqn.lr=1e-3) or, as env.key=value, a task setting.",
     )
-    parser.add_argument("--task", choices=sorted(TASK_DEFAULTS), default=None)
+    parser.add_argument("--task", choices=task_names(), default=None)
     parser.add_argument("--method", choices=sorted(METHODS), default=None)
     parser.add_argument("--seed", type=int, default=None)
     parser.add_argument("--total-samples", type=int, default=None, help="low-level ticks")

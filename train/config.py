@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any, Union, get_args, get_origin, get_type_hints
 
 from maopg.learner import DiscountForm, EnvConfig, MacDQNConfig, PPOConfig
+from maopg.tasks import task_names
 
 MAC_DQN = "mac-dqn"
 JOINT_Q = "joint-q"
@@ -43,6 +44,9 @@ TASK_DEFAULTS: dict[str, dict[str, Any]] = {
     "tool_delivery": {"batch_ticks": 200, "total_samples": 100_000, "images": False},
     "water_filling": {"batch_ticks": 2000, "total_samples": 200_000, "images": True},
 }
+
+GENERIC_DEFAULTS: dict[str, Any] = {"batch_ticks": 1000, "total_samples": 100_000, "images": False}
+"""For a task registered by a user (``maopg.tasks.register_task``) with no entry above."""
 
 
 @dataclass
@@ -115,10 +119,10 @@ class TrainConfig:
         """A copy with every ``None`` replaced by its default, validated."""
         if self.method not in METHODS:
             raise ValueError(f"unknown method {self.method!r}; known: {sorted(METHODS)}")
-        if self.task not in TASK_DEFAULTS:
-            raise ValueError(f"unknown task {self.task!r}; known: {sorted(TASK_DEFAULTS)}")
+        if self.task not in task_names():
+            raise ValueError(f"unknown task {self.task!r}; known: {task_names()}")
         DiscountForm(self.discount)
-        defaults = TASK_DEFAULTS[self.task]
+        defaults = TASK_DEFAULTS.get(self.task, GENERIC_DEFAULTS)
         cfg = dataclasses.replace(self, env_overrides=dict(self.env_overrides))
         for key in ("total_samples", "batch_ticks", "images"):
             if getattr(cfg, key) is None:
