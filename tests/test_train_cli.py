@@ -197,7 +197,7 @@ def test_video_of_the_trained_policy(tmp_path, method):
     assert len(set(frames)) == 1 and frames[0][0] >= 64 and frames[0][2] == 3
 
 
-def test_a_users_registered_task_trains_with_generic_defaults(tmp_path, monkeypatch):
+def test_a_users_registered_task_gets_generic_defaults(tmp_path, monkeypatch):
     import maopg.tasks as tasks
 
     monkeypatch.setattr(tasks, "_TASKS", dict(tasks._TASKS))
