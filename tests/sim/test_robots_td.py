@@ -41,7 +41,12 @@ def test_registered_robot_composes_steps_and_sees(name: str) -> None:
     assert np.isfinite(data.qpos).all() and np.isfinite(data.qvel).all()
     assert np.linalg.norm(robot.position[:2] - start[:2]) < 0.05, f"{name} drifted while holding"
 
-    # 1,000 ticks of random raw actuator commands (within ctrlrange where limited).
+    # 1,000 ticks of zero actuator commands (a drone simply falls and lands), then 1,000 of
+    # random raw commands (within ctrlrange where limited).
+    data.ctrl[:] = 0.0
+    for _ in range(1000):
+        mujoco.mj_step(model, data, nstep=50)
+    assert np.isfinite(data.qpos).all() and np.isfinite(data.qvel).all()
     rng = np.random.default_rng(0)
     lo, hi = model.actuator_ctrlrange[:, 0], model.actuator_ctrlrange[:, 1]
     limited = model.actuator_ctrllimited.astype(bool)
