@@ -67,6 +67,7 @@ class OptionEnv:
         self._images = np.zeros((n, size, size, 3), np.uint8) if task.config.images else None
         self._episode_return = 0.0
         self._needs_reset = True
+        self._masks: tuple[np.ndarray, ...] = ()  # availability reported at the last point
         self._tick_listeners: list[Callable[[OptionEnv, float], None]] = []
 
     # ------------------------------------------------------------------ public API
@@ -193,6 +194,7 @@ class OptionEnv:
     def _point(
         self, reward: float, discounted: float, k: int, terminated: bool, truncated: bool
     ) -> DecisionPoint:
+        self._masks = self.action_masks()
         info: dict[str, object] = {"task": self.task.describe()}
         if terminated or truncated:
             info["episode"] = {
@@ -205,7 +207,7 @@ class OptionEnv:
             images=self._images,
             choosing=self._choosing.copy(),
             running=self._running.copy(),
-            available=self.action_masks(),
+            available=self._masks,
             reward=reward,
             discounted_reward=discounted,
             duration=k,
@@ -225,7 +227,7 @@ class OptionEnv:
                 f"joint_option must be {self.num_agents} integers, one per agent {names}; "
                 f"got {joint_option!r}"
             )
-        masks = self.action_masks()
+        masks = self._masks  # those reported at this decision point
         for i, name in enumerate(names):
             o = int(joint[i])
             if not self._choosing[i]:
