@@ -2,10 +2,11 @@
 
 python -m eval evaluate --checkpoint runs/tool_delivery/async/seed0 --episodes 20
 python -m eval evaluate --reference scripted --task tool_delivery --episodes 10
+python -m eval evaluate --reference scripted --task tool_delivery --set turtlebot_robot=diffbot
 python -m eval video --checkpoint runs/tool_delivery/async/seed0 --out out/td_async.mp4
-python -m eval plot runs/ --out results/
+python -m eval plot runs/ --out out/plots
 python -m eval table runs/ --threshold tool_delivery=200
-python -m eval reproduce --runs runs --results results --seeds 0 1 2
+python -m eval reproduce              # the committed grid: results/runs → results/
 """
 
 from __future__ import annotations
@@ -15,14 +16,22 @@ import sys
 from pathlib import Path
 
 import maopg  # noqa: F401  (sets MUJOCO_GL=egl before anything imports mujoco)
+from maopg.rollout import REFERENCE_POLICIES
 
 
 def _policy_args(parser: argparse.ArgumentParser) -> None:
     source = parser.add_mutually_exclusive_group(required=True)
     source.add_argument("--checkpoint", type=Path, help="checkpoint file or run directory")
-    source.add_argument("--reference", choices=("scripted", "random"), help="reference policy")
-    parser.add_argument("--task", default="tool_delivery", help="task of a reference policy")
-    parser.add_argument("--strategy", default="continue", help="strategy of a reference policy")
+    source.add_argument("--reference", choices=REFERENCE_POLICIES, help="reference policy")
+    parser.add_argument("--task", help="task of a reference policy (default tool_delivery)")
+    parser.add_argument("--strategy", help="strategy of a reference policy (default continue)")
+    parser.add_argument(
+        "--set",
+        nargs="*",
+        default=[],
+        metavar="KEY=VALUE",
+        help="task settings of a reference policy's environment, e.g. turtlebot_robot=diffbot",
+    )
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument(
         "--sample",
@@ -34,30 +43,43 @@ def _policy_args(parser: argparse.ArgumentParser) -> None:
 def _policy_and_env(args: argparse.Namespace):
     """``(label, env, policy)`` for a checkpoint or a reference policy."""
     from maopg.env import make_env
-    from maopg.rollout import RandomPolicy, scripted_policy
+    from maopg.rollout import reference_policy
+    from train.config import parse_task_settings
 
     if args.checkpoint is not None:
         from eval.policy import load_trained
 
+        given = [f"--{k}" for k in ("task", "strategy", "set") if getattr(args, k)]
+        if given:
+            raise SystemExit(
+                f"{', '.join(given)}: a checkpoint brings its own task and strategy "
+                "(they apply to --reference policies only)"
+            )
         trained = load_trained(args.checkpoint)
         env = trained.make_env(args.seed)
         policy = trained.actor(greedy=not args.sample, seed=args.seed)
         c = trained.config
         label = f"{c.method} seed{c.seed} @ {trained.samples} samples"
         return label, env, policy
-    env = make_env(args.task, args.strategy, seed=args.seed)
-    if args.reference == "random":
-        return "random", env, RandomPolicy(env.spec, args.seed)
-    return "scripted", env, scripted_policy(args.task, env.spec)
+    task = args.task or "tool_delivery"
+    try:
+        settings = parse_task_settings(args.set)
+    except ValueError as err:
+        raise SystemExit(f"--set: {err}") from None
+    env = make_env(task, args.strategy or "continue", seed=args.seed, overrides=settings)
+    return args.reference, env, reference_policy(args.reference, task, env.spec, args.seed)
 
 
 def _thresholds(items: list[str]) -> dict[str, float]:
+    from train.config import split_assignment
+
     out = {}
     for item in items:
-        task, sep, value = item.partition("=")
-        if not sep:
-            raise SystemExit(f"--threshold expects task=value, got {item!r}")
-        out[task] = float(value)
+        try:
+            task, value = split_assignment(item)
+            out[task] = float(value)
+        except ValueError as err:
+            raise SystemExit(f"--threshold expects TASK=VALUE: {err}") from None
     return out
 
 
@@ -90,13 +112,19 @@ def cmd_video(args: argparse.Namespace) -> int:
     return 0
 
 
+def _which(args: argparse.Namespace) -> str:
+    if args.unfinished:
+        return "(config.json + metrics.csv)"
+    return "finished (config.json + metrics.csv + done.json; --unfinished for runs in progress)"
+
+
 def cmd_plot(args: argparse.Namespace) -> int:
     from eval.plots import plot_all
     from eval.runs import discover_runs
 
-    runs = discover_runs(args.runs)
+    runs = discover_runs(args.runs, unfinished=args.unfinished)
     if not runs:
-        raise SystemExit(f"no run directories (config.json + metrics.csv) under {args.runs}")
+        raise SystemExit(f"no {_which(args)} run directories under {args.runs}")
     for path in plot_all(
         runs, args.out, metric=args.metric, window=args.window, methods=args.methods
     ):
@@ -108,9 +136,9 @@ def cmd_table(args: argparse.Namespace) -> int:
     from eval.runs import discover_runs
     from eval.tables import peak_table, threshold_table
 
-    runs = discover_runs(args.runs)
+    runs = discover_runs(args.runs, unfinished=args.unfinished)
     if not runs:
-        raise SystemExit(f"no run directories (config.json + metrics.csv) under {args.runs}")
+        raise SystemExit(f"no {_which(args)} run directories under {args.runs}")
     thresholds = _thresholds(args.threshold)
     text = (
         "## Peak performance\n\n"
@@ -135,6 +163,7 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
         thresholds=_thresholds(args.threshold),
         window=args.window,
         train=not args.no_train,
+        eval_episodes=args.eval_episodes,
         tasks=args.tasks,
         methods=args.methods,
         seeds=args.seeds,
@@ -154,7 +183,7 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from eval.reproduce import METHODS, TASKS
+    from eval.reproduce import METHODS, SEEDS, TASKS
 
     parser = argparse.ArgumentParser(prog="python -m eval", description=__doc__.split("\n")[0])
     sub = parser.add_subparsers(dest="command", required=True)
@@ -179,6 +208,7 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("runs", nargs="+", type=Path, help="run directories or their roots")
         p.add_argument("--window", type=int, default=5, help="moving-mean window (iterations)")
         p.add_argument("--methods", nargs="+", help="only these methods, in this order")
+        p.add_argument("--unfinished", action="store_true", help="include runs still in progress")
         p.set_defaults(func=func)
         if name == "plot":
             p.add_argument("--out", type=Path, default=Path("results"))
@@ -192,11 +222,18 @@ def build_parser() -> argparse.ArgumentParser:
             p.add_argument("--out", type=Path, help="also write the Markdown here")
 
     p = sub.add_parser("reproduce", help="resumable methods × tasks × seeds grid, then results")
-    p.add_argument("--runs", type=Path, default=Path("runs"))
+    p.add_argument("--runs", type=Path, default=Path("results/runs"))
     p.add_argument("--results", type=Path, default=Path("results"))
     p.add_argument("--tasks", nargs="+", default=list(TASKS))
     p.add_argument("--methods", nargs="+", default=list(METHODS))
-    p.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2, 3, 4])
+    p.add_argument(
+        "--seeds",
+        nargs="+",
+        type=int,
+        help="for every task (default: "
+        + ", ".join(f"{t} {len(s)} seeds" for t, s in SEEDS.items())
+        + ")",
+    )
     p.add_argument(
         "--set",
         nargs="*",
@@ -206,6 +243,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--threshold", nargs="*", default=[], metavar="TASK=VALUE")
     p.add_argument("--window", type=int, default=5)
+    p.add_argument(
+        "--eval-episodes",
+        type=int,
+        default=10,
+        help="episodes per policy in evaluation.md (0: skip it)",
+    )
     p.add_argument("--in-process", action="store_true", help="train in this process")
     p.add_argument("--dry-run", action="store_true", help="list what would run; train nothing")
     p.add_argument("--no-train", action="store_true", help="only regenerate figures and tables")

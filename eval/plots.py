@@ -55,7 +55,8 @@ def plot_task(
         if x.size == 0:
             continue
         colour = METHOD_COLOURS.get(method)
-        ax.plot(x, mean, color=colour, label=f"{method} ({len(group)} seeds)", lw=2)
+        seeds = f"{len(group)} seed{'s' if len(group) > 1 else ''}"
+        ax.plot(x, mean, color=colour, label=f"{method} ({seeds})", lw=2)
         ax.fill_between(x, mean - std, mean + std, color=colour, alpha=0.2, lw=0)
     ax.set_xlabel("low-level samples (ticks)")
     ax.set_ylabel(METRIC_LABELS.get(metric, metric))

@@ -20,8 +20,9 @@ from maopg.learner import CheckpointError, JointQNetwork, load_checkpoint
 from maopg.learner.macdqn import epsilon_greedy
 from maopg.policy import ObsBatch, OptionPolicy, build_policy, stack_conditions
 from train.config import JOINT_Q, TrainConfig
+from train.run_log import CHECKPOINT, FINAL
 
-CHECKPOINT_NAMES = ("final.pt", "checkpoint.pt")
+CHECKPOINT_NAMES = (FINAL, CHECKPOINT)
 """Looked for, in this order, when a run directory is given instead of a file."""
 
 

@@ -3,11 +3,13 @@
 A run directory (written by ``python -m train``) holds ``config.json`` (task, method, seed, ...)
 and ``metrics.csv`` (one row per iteration: ``samples`` — low-level ticks so far —,
 ``episode_return`` — mean return of the episodes that ended in the iteration, ``nan`` if none —
-and ``option_step_reward``, the paper's metric). ``final.pt`` appears when the run finished.
+and ``option_step_reward``, the paper's metric). ``done.json`` appears when the run finished.
 
 Curves are noisy per iteration, so statistics use a trailing moving average over ``window``
 iterations that reported a value; every statistic is computed per seed first and then
-summarised as mean ± std over seeds (population std, ``ddof=0``).
+summarised as mean ± std over seeds (population std, ``ddof=0``). Unfinished runs are left out
+of statistics unless asked for: a seed still in progress would cut the common range of a
+method's curves short and lower its peak.
 """
 
 from __future__ import annotations
@@ -22,10 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
-FINAL = "final.pt"
-"""Written by the trainer when a run completes (``train.trainer.FINAL``)."""
-METRICS = "metrics.csv"
-CONFIG = "config.json"
+from train.run_log import CONFIG, DONE, METRICS
+
 RETURN = "episode_return"
 PAPER_METRIC = "option_step_reward"
 
@@ -65,12 +65,14 @@ def trailing_mean(values: np.ndarray, window: int) -> np.ndarray:
 
 
 def load_run(run_dir: str | Path) -> RunData:
-    """Read ``config.json`` and ``metrics.csv`` of one run directory."""
+    """Read ``config.json`` and ``metrics.csv`` of one run directory (a run that has not
+    finished an iteration yet has a header and no rows: empty curves)."""
     run_dir = Path(run_dir)
     config = json.loads((run_dir / CONFIG).read_text())
     with (run_dir / METRICS).open(newline="") as handle:
-        rows = list(csv.DictReader(handle))
-    columns = rows[0].keys() if rows else ()
+        reader = csv.DictReader(handle)
+        rows = list(reader)
+        columns = reader.fieldnames or ()
     metrics = {
         name: np.array([float(r[name]) for r in rows], dtype=np.float64)
         for name in columns
@@ -84,12 +86,13 @@ def load_run(run_dir: str | Path) -> RunData:
         seed=int(config["seed"]),
         samples=samples,
         metrics=metrics,
-        finished=(run_dir / FINAL).exists(),
+        finished=(run_dir / DONE).exists(),
     )
 
 
-def discover_runs(roots: Iterable[str | Path]) -> list[RunData]:
-    """Every run directory (``config.json`` + ``metrics.csv``) under ``roots``, sorted."""
+def discover_runs(roots: Iterable[str | Path], *, unfinished: bool = False) -> list[RunData]:
+    """Every finished run directory (``config.json`` + ``metrics.csv`` + ``done.json``) under
+    ``roots``, sorted; with ``unfinished``, runs in progress too."""
     found: dict[Path, RunData] = {}
     for root in roots:
         root = Path(root)
@@ -97,7 +100,9 @@ def discover_runs(roots: Iterable[str | Path]) -> list[RunData]:
             raise FileNotFoundError(f"run directory root {root} does not exist")
         for metrics in sorted(root.rglob(METRICS)):
             if (metrics.parent / CONFIG).exists():
-                found[metrics.parent.resolve()] = load_run(metrics.parent)
+                run = load_run(metrics.parent)
+                if run.finished or unfinished:
+                    found[metrics.parent.resolve()] = run
     return sorted(found.values(), key=lambda r: (r.task, r.method, r.seed, str(r.path)))
 
 
@@ -112,25 +117,35 @@ def group_runs(runs: Iterable[RunData]) -> dict[tuple[str, str], list[RunData]]:
 # ----------------------------------------------------------------------------- statistics
 @dataclass(frozen=True)
 class Summary:
-    """Mean ± std over the seeds that contributed, and how many of how many did."""
+    """Mean ± std over the seeds that contributed (``nan`` values are left out), and how many
+    did."""
 
     mean: float
     std: float
     count: int
-    total: int
 
     @staticmethod
-    def of(values: Sequence[float], total: int) -> Summary:
+    def of(values: Sequence[float]) -> Summary:
         arr = np.asarray([v for v in values if not math.isnan(v)], dtype=np.float64)
         if arr.size == 0:
-            return Summary(math.nan, math.nan, 0, total)
-        return Summary(float(arr.mean()), float(arr.std()), int(arr.size), total)
+            return Summary(math.nan, math.nan, 0)
+        return Summary(float(arr.mean()), float(arr.std()), int(arr.size))
 
 
 def peak(run: RunData, metric: str = RETURN, window: int = 1) -> float:
     """Best smoothed value of ``metric`` in the run (``nan`` if it never reported one)."""
     _, values = run.curve(metric, window)
     return float(values.max()) if values.size else math.nan
+
+
+def final(run: RunData, metric: str = RETURN, fraction: float = 0.1) -> float:
+    """Mean per-iteration ``metric`` over the last ``fraction`` of the run's samples (``nan`` if
+    none reported there): where training ended, which a peak alone does not tell."""
+    if not run.samples.size:
+        return math.nan
+    samples, values = run.curve(metric)
+    tail = values[samples > run.samples[-1] * (1.0 - fraction)]
+    return float(tail.mean()) if tail.size else math.nan
 
 
 def samples_to_threshold(

@@ -2,6 +2,8 @@
 
 Peak = the best smoothed mean episode return a seed reached (and, in its own column, the best
 smoothed option-step reward: the paper's metric, a different quantity — never compare the two).
+Final = the mean return over the last 10% of a seed's samples: a method that peaks and then
+falls back (Mac-DQN exploring at its final ε, say) differs from one that stays there.
 Samples to threshold = low-level samples until a seed's smoothed return first reached the
 task's threshold; seeds that never did are counted in the "reached" column, not averaged.
 """
@@ -11,25 +13,34 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Mapping, Sequence
 
-from eval.runs import PAPER_METRIC, RETURN, RunData, Summary, group_runs, peak
+from eval.runs import PAPER_METRIC, RETURN, RunData, Summary, final, group_runs, peak
 from eval.runs import samples_to_threshold as _samples_to_threshold
 
 DEFAULT_THRESHOLDS: dict[str, float] = {
-    # 200 = 77% of the scripted policy's 259 (DESIGN §7): a policy that delivers all three tools
-    # with little waste.
+    # 200 = 77% of the scripted policy's 259 (docs/DESIGN.md §7): a policy that delivers all
+    # three tools with little waste.
     "tool_delivery": 200.0,
-    # The scripted heuristic's level: `python -m maopg.rollout --task water_filling --policy
-    # scripted --episodes 10` gives about −2.8e5 (random about −4.5e5). Eq. 6 charges ~−1000
-    # per tick per dry jar, so the paper's −304 (another simulator and metric) is not comparable.
+    # Near the scripted heuristic (about −2.8e5; random options about −4.5e5: results/
+    # evaluation.md, from `python -m eval reproduce`). Eq. 6 charges ~−1000 per tick per dry
+    # jar, so the paper's −304 (another simulator and metric) is not comparable.
     "water_filling": -300_000.0,
 }
 
 
 def format_summary(summary: Summary, digits: int = 1) -> str:
-    """``mean ± std`` (``—`` when no seed contributed)."""
+    """``mean ± std`` (``—`` when no seed contributed; the bare value for one seed, whose
+    "± 0" would read as no spread rather than unknown spread)."""
     if summary.count == 0:
         return "—"
+    if summary.count == 1:
+        return f"{summary.mean:.{digits}f}"
     return f"{summary.mean:.{digits}f} ± {summary.std:.{digits}f}"
+
+
+def _seeds(group: Sequence[RunData]) -> str:
+    """How many seeds, and how many of them are still in progress (when any are included)."""
+    running = sum(not r.finished for r in group)
+    return f"{len(group)} ({running} unfinished)" if running else str(len(group))
 
 
 def _markdown(header: Sequence[str], rows: Iterable[Sequence[str]]) -> str:
@@ -49,27 +60,25 @@ def _selected(
 def peak_table(
     runs: Iterable[RunData], *, window: int = 1, methods: Sequence[str] | None = None
 ) -> str:
-    """Per task × method: seeds, peak return, peak paper's metric, samples trained."""
+    """Per task × method: seeds, peak and final return, peak paper's metric, samples trained."""
     rows = []
     for (task, method), group in _selected(runs, methods):
-        n = len(group)
-        returns = Summary.of([peak(r, RETURN, window) for r in group], n)
+        returns = Summary.of([peak(r, RETURN, window) for r in group])
+        last = Summary.of([final(r, RETURN) for r in group])
         paper = Summary.of(
             [
                 peak(r, PAPER_METRIC, window) if PAPER_METRIC in r.metrics else math.nan
                 for r in group
-            ],
-            n,
+            ]
         )
-        trained = Summary.of(
-            [float(r.samples[-1]) if r.samples.size else math.nan for r in group], n
-        )
+        trained = Summary.of([float(r.samples[-1]) if r.samples.size else math.nan for r in group])
         rows.append(
             [
                 task,
                 method,
-                f"{n} ({sum(r.finished for r in group)} finished)",
+                _seeds(group),
                 format_summary(returns),
+                format_summary(last),
                 format_summary(paper, 2),
                 format_summary(trained, 0),
             ]
@@ -79,6 +88,7 @@ def peak_table(
         "method",
         "seeds",
         "peak episode return",
+        "final episode return (last 10%)",
         "peak option-step reward (paper's metric)",
         "samples trained",
     ]
@@ -101,7 +111,7 @@ def threshold_table(
             rows.append([task, method, "—", "no threshold set", f"0/{n}"])
             continue
         reached = Summary.of(
-            [_samples_to_threshold(r, thresholds[task], RETURN, window) for r in group], n
+            [_samples_to_threshold(r, thresholds[task], RETURN, window) for r in group]
         )
         rows.append(
             [

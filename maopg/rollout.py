@@ -1,16 +1,12 @@
-"""Reference policies (scripted, uniform random) and episode rollouts, with a small CLI.
+"""Reference policies (scripted, uniform random) and episode rollouts.
 
-    python -m maopg.rollout --task tool_delivery --policy scripted --episodes 10
-
-prints the mean ± std episode return: the two reference points every learning curve is read
-against (DESIGN §7: scripted ≈ 259, random ≈ −66 on the canonical Tool Delivery task).
+The two reference policies are the levels every learning curve is read against;
+``python -m eval evaluate --reference scripted|random`` evaluates them from the command line.
 """
 
 from __future__ import annotations
 
-import argparse
 import importlib
-import json
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol
@@ -38,6 +34,18 @@ class RandomPolicy:
         for i in np.flatnonzero(point.choosing):
             joint[i] = self.rng.choice(np.flatnonzero(point.available[i]))
         return joint
+
+
+REFERENCE_POLICIES = ("scripted", "random")
+
+
+def reference_policy(name: str, task: str, spec: EnvSpec, seed: int = 0) -> ReferencePolicy:
+    """``scripted`` (the task's own) or ``random`` (uniform, seeded) for ``task``."""
+    if name == "random":
+        return RandomPolicy(spec, seed)
+    if name == "scripted":
+        return scripted_policy(task, spec)
+    raise ValueError(f"unknown reference policy {name!r}; known: {REFERENCE_POLICIES}")
 
 
 def scripted_policy(task: str, spec: EnvSpec) -> ReferencePolicy:
@@ -90,50 +98,7 @@ def evaluate_reference(
 ) -> list[EpisodeResult]:
     env = make_env(task, strategy, seed=seed, overrides=overrides)
     try:
-        pol = (
-            RandomPolicy(env.spec, seed) if policy == "random" else scripted_policy(task, env.spec)
-        )
+        pol = reference_policy(policy, task, env.spec, seed)
         return [run_episode(env, pol) for _ in range(episodes)]
     finally:
         env.close()
-
-
-def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--task", default="tool_delivery")
-    parser.add_argument("--policy", choices=("scripted", "random"), default="scripted")
-    parser.add_argument("--episodes", type=int, default=10)
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--strategy", default="continue")
-    parser.add_argument(
-        "--set",
-        nargs="*",
-        default=[],
-        metavar="KEY=VALUE",
-        help="task config overrides, e.g. turtlebot_robot=diffbot (values parsed as JSON)",
-    )
-    args = parser.parse_args(argv)
-    overrides = {}
-    for item in args.set:
-        key, sep, text = item.partition("=")
-        if not sep:
-            parser.error(f"--set {item!r} is not of the form KEY=VALUE")
-        try:
-            overrides[key] = json.loads(text)
-        except json.JSONDecodeError:
-            overrides[key] = text
-    results = evaluate_reference(
-        args.task, args.policy, args.episodes, args.seed, args.strategy, overrides
-    )
-    returns = np.array([r.ret for r in results])
-    ticks = np.array([r.ticks for r in results])
-    solved = np.mean([r.solved for r in results])
-    print(
-        f"{args.task} {args.policy} ({args.strategy}, {args.episodes} episodes, seed {args.seed}): "
-        f"return {returns.mean():.1f} ± {returns.std():.1f}, "
-        f"length {ticks.mean():.1f} ticks, solved {solved:.0%}"
-    )
-
-
-if __name__ == "__main__":
-    main()

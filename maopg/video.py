@@ -3,7 +3,8 @@
 One frame per **tick** (low-level step), composed as::
 
     +----------------------------+-----------------+
-    |  overview camera (480x640) |  tick, reward,  |
+    |  overview camera (480x640) |  tick, return,  |
+    |                            |  last reward,   |
     |                            |  task state     |
     +---------+---------+--------+-----------------+
     | robot 0: option | robot 1: option | ...      |   <- caption: agent and current option
@@ -17,13 +18,11 @@ turns yellow on the tick an agent starts a new option.
 The option environment only returns at decision points, so per-tick frames come from its tick
 listener (:meth:`OptionEnv.add_tick_listener`), registered for the episode and removed after.
 Everything is deterministic given the seed: physics, policy (if seeded) and rendering.
-
-    python -m maopg.video --task tool_delivery --policy scripted --out out/td_scripted.mp4
+``python -m eval video`` records one from a checkpoint or a reference policy.
 """
 
 from __future__ import annotations
 
-import argparse
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -33,8 +32,8 @@ import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
 import maopg  # noqa: F401  (sets MUJOCO_GL=egl before mujoco is imported)
-from maopg.env import DecisionPoint, OptionEnv, make_env
-from maopg.rollout import RandomPolicy, ReferencePolicy, scripted_policy
+from maopg.env import DecisionPoint, OptionEnv
+from maopg.rollout import ReferencePolicy
 from maopg.sim.render import CameraRenderer, VideoRenderer
 from maopg.tasks.base import SceneTask
 
@@ -113,8 +112,10 @@ class Overlay:
     """What is written on one frame."""
 
     tick: int
-    reward: float
-    """Episode return so far (sum of tick rewards)."""
+    ret: float
+    """Episode return so far (sum of the tick rewards up to and including this frame's tick)."""
+    reward: float | None
+    """Reward of this frame's tick alone (``None`` on the reset frame, before any tick)."""
     options: Sequence[str]
     """Current option name of every agent ("-" before the first choice)."""
     started: Sequence[bool]
@@ -181,7 +182,9 @@ class FrameComposer:
         x, y = OVERVIEW_SIZE[1] + 12, 12
         limit = f" / {self.max_ticks}" if self.max_ticks else ""
         head = [(self.title, DIM), (f"tick {overlay.tick}{limit}", TEXT)]
-        head.append((f"return {overlay.reward:+.1f}", TEXT))
+        head.append((f"return {overlay.ret:+.1f}", TEXT))
+        last = "-" if overlay.reward is None else f"{overlay.reward:+.1f}"
+        head.append((f"reward {last} (last tick)", TEXT))
         for text, colour in head:
             draw.text((x, y), text, fill=colour, font=self._font)
             y += 26
@@ -250,21 +253,27 @@ def record_episode(
     writer = imageio.get_writer(path, fps=fps, codec="libx264", macro_block_size=BLOCK)
     frames = [0]
 
-    def write(tick: int) -> None:
-        state = state_lines(task.name, task.describe())
-        overlay = Overlay(tick, total[0], list(options), started.tolist(), state)
+    def write(tick: int, reward: float | None) -> None:
+        overlay = Overlay(
+            tick=tick,
+            ret=total[0],
+            reward=reward,
+            options=list(options),
+            started=started.tolist(),
+            state=state_lines(task.name, task.describe()),
+        )
         writer.append_data(composer.compose(overlay))
         frames[0] += 1
 
     def on_tick(_env: OptionEnv, reward: float) -> None:
         total[0] += reward
-        write(task.ticks)
+        write(task.ticks, reward)
         started[:] = False
 
     env.add_tick_listener(on_tick)
     try:
         point: DecisionPoint = env.reset(seed=seed)
-        write(0)
+        write(0, None)
         while not point.done:
             joint = np.asarray(policy(point))
             for i in np.flatnonzero(point.choosing):
@@ -279,35 +288,3 @@ def record_episode(
     return RecordedEpisode(
         path, frames[0], composer.shape, episode["return"], episode["ticks"], episode["solved"]
     )
-
-
-# ----------------------------------------------------------------------------- command line
-def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(
-        prog="python -m maopg.video",
-        description="Record a headless MP4 of one episode driven by a reference policy.",
-    )
-    parser.add_argument("--task", default="tool_delivery")
-    parser.add_argument("--policy", choices=("scripted", "random"), default="scripted")
-    parser.add_argument("--strategy", default="continue")
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--fps", type=int, default=4)
-    parser.add_argument("--out", type=Path, default=Path("out/video.mp4"))
-    args = parser.parse_args(argv)
-    env = make_env(args.task, args.strategy, seed=args.seed)
-    try:
-        if args.policy == "random":
-            policy: ReferencePolicy = RandomPolicy(env.spec, args.seed)
-        else:
-            policy = scripted_policy(args.task, env.spec)
-        result = record_episode(env, policy, args.out, seed=args.seed, fps=args.fps)
-    finally:
-        env.close()
-    print(
-        f"{result.path}: {result.frames} frames {result.shape[1]}x{result.shape[0]}, "
-        f"return {result.ret:.1f} in {result.ticks} ticks, solved {result.solved}"
-    )
-
-
-if __name__ == "__main__":
-    main()

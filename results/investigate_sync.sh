@@ -15,8 +15,13 @@ for method in sync-cut sync-wait async; do
     video=false env.mask_options=true --run-dir "$ROOT/$method-masked/seed0"
 done
 # One table per probe (runs are grouped by method, so each probe is its own root).
-for probe in "$ROOT"/*/; do
-  echo "### $(basename "$probe")"
-  $PY -m eval table "$probe" --threshold tool_delivery=200
-done > results/investigation/tables.md
+{
+  echo "# Tool Delivery probes: sync-cut, sync-wait and async with more exploration or masking"
+  for probe in "$ROOT"/*/; do
+    echo
+    echo "## $(basename "$probe")"
+    echo
+    $PY -m eval table "$probe" --threshold tool_delivery=200 | sed 's/^## /### /'
+  done
+} > results/investigation/tables.md
 echo "wrote results/investigation/tables.md"

@@ -4,6 +4,7 @@ a kill, the rollout video, bad input."""
 from __future__ import annotations
 
 import csv
+import json
 import os
 import signal
 import subprocess
@@ -125,6 +126,7 @@ def test_every_method_trains_a_tiny_budget(tmp_path, task, method):
         resumed = _rows(run_dir)
         assert resumed[: len(rows)] == rows and int(resumed[-1]["samples"]) >= 180
         assert int(resumed[-1]["updates"]) > int(rows[-1]["updates"])
+        assert json.loads((run_dir / "done.json").read_text())["samples"] >= 180
 
 
 def test_kill_and_resume_reproduces_the_uninterrupted_run(tmp_path):
@@ -148,10 +150,11 @@ def test_kill_and_resume_reproduces_the_uninterrupted_run(tmp_path):
     proc.wait()
     interrupted_rows = len(_rows(killed))
     assert interrupted_rows < len(_rows(reference)), "the run finished before it was killed"
-    assert not (killed / "final.pt").exists()
+    assert not (killed / "final.pt").exists() and not (killed / "done.json").exists()
 
     main(["--resume", "--run-dir", str(killed), "progress=false"])
     assert _deterministic(_rows(killed)) == _deterministic(_rows(reference))
+    assert json.loads((killed / "done.json").read_text())["samples"] >= 1200
 
 
 def test_worker_processes_give_the_same_curve_as_in_process(tmp_path):
@@ -168,8 +171,14 @@ def test_existing_run_needs_resume_and_corrupt_checkpoint_is_named(tmp_path):
     main(args)
     with pytest.raises(FileExistsError, match="--resume"):
         main(args)
+    # a finished run resumes as a no-op, even where its checkpoint is gone (a fresh clone)
     checkpoint = run_dir / "checkpoint.pt"
-    checkpoint.write_bytes(checkpoint.read_bytes()[:100])
+    saved = checkpoint.read_bytes()
+    checkpoint.unlink()
+    metrics = (run_dir / "metrics.csv").read_text()
+    main(["--resume", "--run-dir", str(run_dir), "progress=false"])
+    assert (run_dir / "metrics.csv").read_text() == metrics and not checkpoint.exists()
+    checkpoint.write_bytes(saved[:100])
     with pytest.raises(CheckpointError, match=str(checkpoint)):
         main(["--resume", "--run-dir", str(run_dir), "--total-samples", "200"])
     with pytest.raises(ValueError, match="seed"):

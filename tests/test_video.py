@@ -6,6 +6,7 @@ import hashlib
 
 import imageio.v2 as imageio
 import numpy as np
+import pytest
 
 from maopg.env import make_env
 from maopg.rollout import RandomPolicy
@@ -18,7 +19,6 @@ from maopg.video import (
     FrameComposer,
     Overlay,
     generic_state_lines,
-    main,
     record_episode,
     state_lines,
 )
@@ -83,7 +83,9 @@ def test_caption_highlights_agents_that_start_an_option():
     try:
         composer = FrameComposer(env.task, env.spec.agent_names, title="t", max_ticks=12)
         try:
-            base = dict(tick=3, reward=-3.0, options=["GoToWS", "GetTool", "Wait"], state=["s"])
+            base = dict(
+                tick=3, ret=-3.0, reward=-1.0, options=["GoToWS", "GetTool", "Wait"], state=["s"]
+            )
             plain = composer.compose(Overlay(started=[False, False, False], **base))
             marked = composer.compose(Overlay(started=[False, True, False], **base))
         finally:
@@ -106,6 +108,55 @@ def test_caption_highlights_agents_that_start_an_option():
     outside = np.ones(plain.shape[:2], bool)
     outside[caption] = False
     assert np.array_equal(plain[outside], marked[outside])
+
+
+def test_panel_shows_the_last_tick_reward():
+    """The last tick's reward is drawn in the side panel, and nowhere else."""
+    env = _short_env()
+    try:
+        composer = FrameComposer(env.task, env.spec.agent_names, title="t", max_ticks=12)
+        try:
+            base = dict(tick=3, ret=97.0, options=["-"] * 3, started=[False] * 3, state=["s"])
+            frames = [
+                composer.compose(Overlay(reward=reward, **base)) for reward in (-1.0, 99.0, None)
+            ]
+        finally:
+            composer.close()
+    finally:
+        env.close()
+    panel = np.zeros(frames[0].shape[:2], bool)
+    panel[: OVERVIEW_SIZE[0], OVERVIEW_SIZE[1] :] = True
+    for a, b in ((0, 1), (0, 2), (1, 2)):
+        assert not np.array_equal(frames[a][panel], frames[b][panel])
+        assert np.array_equal(frames[a][~panel], frames[b][~panel])
+
+
+def test_overlay_rewards_are_the_tick_rewards(tmp_path, monkeypatch):
+    """Per frame: the reward of its tick, and the return so far; they add up to the episode's."""
+    overlays = []
+    compose = FrameComposer.compose
+
+    def spy(self, overlay):
+        overlays.append(overlay)
+        return compose(self, overlay)
+
+    monkeypatch.setattr(FrameComposer, "compose", spy)
+    env = _short_env()
+    ticks = []
+    env.add_tick_listener(lambda _env, reward: ticks.append(reward))
+    try:
+        result = record_episode(env, RandomPolicy(env.spec, 1), tmp_path / "v.mp4", seed=1)
+    finally:
+        env.close()
+    assert len(overlays) == result.frames == len(ticks) + 1
+    assert [o.tick for o in overlays] == list(range(result.ticks + 1))
+    assert overlays[0].reward is None and overlays[0].ret == 0.0
+    rewards = [o.reward for o in overlays[1:]]
+    assert rewards == ticks
+    assert len(set(rewards)) > 1  # not a constant: the random episode has more than tick costs
+    assert [o.ret for o in overlays[1:]] == pytest.approx(np.cumsum(rewards).tolist())
+    assert sum(rewards) == pytest.approx(result.ret)
+    assert overlays[-1].ret == pytest.approx(result.ret)
 
 
 def test_state_lines():
@@ -134,7 +185,9 @@ def test_state_lines():
 
 def test_cli_records_the_scripted_episode(tmp_path, capsys):
     out = tmp_path / "td.mp4"
-    main(["--task", "tool_delivery", "--policy", "scripted", "--out", str(out)])
+    from eval.__main__ import main
+
+    main(["video", "--reference", "scripted", "--task", "tool_delivery", "--out", str(out)])
     assert "return 259.0 in 41 ticks" in capsys.readouterr().out
     assert len(_read(out)) == 42
 

@@ -14,6 +14,7 @@ from pathlib import Path
 import maopg  # noqa: F401  (sets MUJOCO_GL before anything imports mujoco)
 from maopg.tasks import task_names
 from train.config import METHODS, TrainConfig, merge, parse_overrides
+from train.run_log import CONFIG
 
 
 def parse_args(argv: list[str] | None = None) -> tuple[TrainConfig, argparse.Namespace]:
@@ -53,7 +54,7 @@ def parse_args(argv: list[str] | None = None) -> tuple[TrainConfig, argparse.Nam
     config = TrainConfig.from_dict(merge(TrainConfig().to_dict(), values))
     if args.resume:
         # A resumed run starts from its saved config; flags given now must agree with it.
-        saved = Path(config.resolved().run_dir) / "config.json"  # type: ignore[arg-type]
+        saved = Path(config.resolved().run_dir) / CONFIG  # type: ignore[arg-type]
         if saved.exists():
             config = TrainConfig.from_dict(merge(TrainConfig.load(saved).to_dict(), values))
     return config, args

@@ -32,7 +32,7 @@ METHODS: dict[str, tuple[str, str]] = {
     "partial": ("continue", "partial"),
     MAC_DQN: ("continue", JOINT_Q),
 }
-"""Method name → (termination strategy, policy kind), DESIGN §6. MAPPO trains a conditional
+"""Method name → (termination strategy, policy kind), docs/DESIGN.md §6. MAPPO trains a conditional
 ``centralized`` or ``partial`` policy; Mac-DQN (``joint-q``) a joint Q-network whose policy is
 the conditional argmax."""
 
@@ -224,24 +224,39 @@ def _parse_value(text: str, annotation: Any, key: str) -> Any:
     return text
 
 
+def split_assignment(item: str) -> tuple[str, str]:
+    """``"key=value"`` → ``("key", "value")``; anything else is a :class:`ValueError`."""
+    key, sep, text = item.partition("=")
+    if not sep or not key:
+        raise ValueError(f"{item!r} is not of the form key=value")
+    return key, text
+
+
+def parse_task_settings(items: list[str]) -> dict[str, Any]:
+    """``["max_ticks=100", "turtlebot_robot=diffbot"]`` → task config overrides, values parsed
+    as JSON where they are JSON (numbers, booleans, lists), else kept as strings."""
+    settings: dict[str, Any] = {}
+    for item in items:
+        key, text = split_assignment(item)
+        try:
+            settings[key] = json.loads(text)
+        except json.JSONDecodeError:
+            settings[key] = text
+    return settings
+
+
 def parse_overrides(items: list[str]) -> dict[str, Any]:
     """``["epochs=5", "dqn.lr=1e-3", "env.max_ticks=100"]`` → typed field values, sections as
     dicts (``{"epochs": 5, "dqn": {"lr": 0.001}, "env_overrides": {"max_ticks": 100}}``; task
     settings are parsed as JSON where possible, else kept as strings)."""
     values: dict[str, Any] = {}
     for item in items:
-        key, sep, text = item.partition("=")
-        if not sep:
-            raise ValueError(f"override {item!r} is not of the form key=value")
+        key, text = split_assignment(item)
         section, dot, name = key.partition(".")
         if not dot:
             values[key] = _parse_field(TrainConfig, key, text, "")
         elif section == "env":
-            env = values.setdefault("env_overrides", {})
-            try:
-                env[name] = json.loads(text)
-            except json.JSONDecodeError:
-                env[name] = text
+            values.setdefault("env_overrides", {}).update(parse_task_settings([f"{name}={text}"]))
         elif section in SECTIONS:
             values.setdefault(section, {})[name] = _parse_field(
                 SECTIONS[section], name, text, f"{section}."

@@ -1,4 +1,5 @@
-"""Per-iteration metrics of a run: ``metrics.csv``, TensorBoard scalars, the learning-curve PNG.
+"""The files of a run directory, and its per-iteration record: ``metrics.csv``, TensorBoard
+scalars, the learning-curve PNG and the ``done.json`` marker.
 
 The CSV is the record the evaluation tools and the resume test read, so floats are written with
 ``repr`` (exact round trip) and a resumed run first cuts the file back to the checkpoint's
@@ -8,9 +9,24 @@ iteration: rows a killed run wrote after its last checkpoint are recomputed, not
 from __future__ import annotations
 
 import csv
+import json
 import math
+import os
 from pathlib import Path
 from typing import Any
+
+CONFIG = "config.json"
+METRICS = "metrics.csv"
+CHECKPOINT = "checkpoint.pt"
+"""Everything needed to resume, written every ``checkpoint_every`` iterations (large)."""
+FINAL = "final.pt"
+"""The trained weights (what :func:`eval.policy.load_trained` reads)."""
+CURVE = "learning_curve.png"
+VIDEO = "rollout.mp4"
+DONE = "done.json"
+"""Written last, when every other output of a finished run exists: the one sign that a run is
+complete. A small file of its own (not ``final.pt``) so that a results folder can keep the
+record of a run — config, metrics, marker — without its weights."""
 
 SHARED_COLUMNS = (
     "iteration",
@@ -65,7 +81,7 @@ class RunLog:
         from torch.utils.tensorboard import SummaryWriter
 
         self.columns = columns
-        self.path = run_dir / "metrics.csv"
+        self.path = run_dir / METRICS
         if resume_iteration is None or not self.path.exists():
             self.path.write_text(",".join(columns) + "\n")
         else:
@@ -92,6 +108,16 @@ class RunLog:
 
     def close(self) -> None:
         self.tb.close()
+
+
+def write_done(run_dir: Path, *, iterations: int, samples: int, wall_time: float) -> Path:
+    """Mark ``run_dir`` finished (atomically: a reader never sees half a marker)."""
+    path = run_dir / DONE
+    tmp = path.with_name(f".{DONE}.tmp")
+    record = {"iterations": iterations, "samples": samples, "wall_time": wall_time}
+    tmp.write_text(json.dumps(record, indent=2) + "\n")
+    os.replace(tmp, path)
+    return path
 
 
 def read_metrics(path: Path) -> list[dict[str, str]]:

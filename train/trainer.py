@@ -14,6 +14,7 @@ and each environment's (episode, options since reset), so a resumed run continue
 
 from __future__ import annotations
 
+import json
 import math
 import random
 import shutil
@@ -44,11 +45,21 @@ from maopg.learner.macdqn import point_arrays
 from maopg.policy import CentralCritic, ObsBatch, build_policy, stack_conditions
 from maopg.video import record_episode
 from train.config import MAC_DQN, TrainConfig
-from train.run_log import MACDQN_COLUMNS, MAPPO_COLUMNS, RunLog, plot_learning_curve
+from train.run_log import (
+    CHECKPOINT,
+    CONFIG,
+    CURVE,
+    DONE,
+    FINAL,
+    MACDQN_COLUMNS,
+    MAPPO_COLUMNS,
+    METRICS,
+    VIDEO,
+    RunLog,
+    plot_learning_curve,
+    write_done,
+)
 
-CHECKPOINT = "checkpoint.pt"
-FINAL = "final.pt"
-VIDEO = "rollout.mp4"
 RESUMABLE_KEYS = ("total_samples", "progress", "video", "num_workers", "run_dir")
 """Config fields a resumed run may change: none of them changes what is computed."""
 
@@ -68,7 +79,7 @@ def _seed_everything(seed: int) -> tuple[torch.Generator, torch.Generator]:
 def _prepare_run_dir(config: TrainConfig, resume: bool, overwrite: bool) -> TrainConfig:
     """Create or reopen the run directory; on resume the saved config wins (see RESUMABLE_KEYS)."""
     run_dir = Path(config.run_dir)  # type: ignore[arg-type]
-    saved = run_dir / "config.json"
+    saved = run_dir / CONFIG
     if resume and saved.exists():
         before, now = TrainConfig.load(saved).flat(), config.flat()
         clashes = {
@@ -315,13 +326,18 @@ def train(config: TrainConfig, *, resume: bool = False, overwrite: bool = False)
     """Train ``config`` (resolved here) and return the run directory."""
     config = _prepare_run_dir(config.resolved(), resume, overwrite)
     run_dir = Path(config.run_dir)  # type: ignore[arg-type]
+    done = run_dir / DONE
+    if resume and done.exists():
+        if json.loads(done.read_text())["samples"] >= config.total_samples:
+            return run_dir  # finished: --resume has nothing to do (even with no checkpoint)
+        done.unlink()  # a larger budget: unfinished again until it is reached
     checkpoint_path = run_dir / CHECKPOINT
     resume = resume and checkpoint_path.exists()
     if config.torch_threads:
         torch.set_num_threads(config.torch_threads)
     sample_gen, update_gen = _seed_everything(config.seed)
 
-    # Workers are spawned before this process builds anything that renders (DESIGN §2).
+    # Workers are spawned before this process builds anything that renders (docs/DESIGN.md §2).
     sampler = Sampler(
         config.env(), num_envs=config.num_envs, num_workers=config.num_workers, seed=config.seed
     )
@@ -398,6 +414,7 @@ def train(config: TrainConfig, *, resume: bool = False, overwrite: bool = False)
     finally:
         sampler.close()
     after_training(run_dir)
+    write_done(run_dir, iterations=iteration, samples=samples, wall_time=wall_time)
     return run_dir
 
 
@@ -408,9 +425,9 @@ def after_training(run_dir: Path) -> None:
     The policy is loaded back from ``final.pt`` the way ``python -m eval video`` loads it, so
     the video shows what the saved checkpoint does.
     """
-    config = TrainConfig.load(run_dir / "config.json")
+    config = TrainConfig.load(run_dir / CONFIG)
     title = f"{config.task} · {config.method} · seed {config.seed}"
-    plot_learning_curve(run_dir / "metrics.csv", run_dir / "learning_curve.png", title)
+    plot_learning_curve(run_dir / METRICS, run_dir / CURVE, title)
     if config.video:
         trained = load_trained(run_dir / FINAL)
         env = trained.make_env(0)

@@ -42,7 +42,7 @@ import numpy as np
 
 
 class Strategy(enum.StrEnum):
-    """How option terminations of different agents are reconciled (DESIGN §3)."""
+    """How option terminations of different agents are reconciled (docs/DESIGN.md §3)."""
 
     CONTINUE = "continue"
     ANY = "any"

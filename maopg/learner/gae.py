@@ -4,7 +4,7 @@ A rollout is a ``[S, E]`` grid: ``S`` option steps of ``E`` environments stepped
 Option step ``t`` of an environment starts at decision point ``z_t``; it lasts ``k_t`` ticks and
 collects the rewards ``r_{t,0..k_t-1}`` reported at the next decision point.
 
-Two discount forms are supported (DESIGN §5):
+Two discount forms are supported (docs/DESIGN.md §5):
 
 ``smdp`` (default)
     The semi-Markov form: discount by the time that actually passed,

@@ -1,4 +1,4 @@
-"""Mac-DQN: centralized macro-action deep Q-learning over asynchronous options (DESIGN §6).
+"""Mac-DQN: centralized macro-action deep Q-learning over asynchronous options (docs/DESIGN.md §6).
 
 The value-based asynchronous baseline of the paper's Table I (Xiao, Hoffman & Amato 2019,
 "Macro-Action-Based Deep Multi-Agent Reinforcement Learning", CoRL; their centralized
@@ -52,8 +52,8 @@ class MacDQNConfig:
     The discount and the network size are not here: they are the run's ``gamma`` (which also
     discounts the environment's rewards, so the two cannot disagree), ``hidden`` and ``layers``,
     shared with MAPPO so both methods optimise the same objective with the same encoders
-    (DESIGN §5; MacDeepMARL's TD command used ``--rnn_h_size=128`` too, and γ = 1.0 per macro-step
-    where we use 0.99 per tick).
+    (docs/DESIGN.md §5; MacDeepMARL's TD command used ``--rnn_h_size=128`` too, and γ = 1.0 per
+    macro-step where we use 0.99 per tick).
     """
 
     lr: float = 6e-4
@@ -84,7 +84,7 @@ class MacDQNConfig:
     (``--eps_l_d_steps=6000``, ~0.5-0.9M ticks), far beyond our budgets."""
     huber_delta: float = 10.0
     """Huber TD loss. Chosen here (original: squared error unless ``--huber_l``); δ as MAPPO's
-    value loss (DESIGN §5), so ±100 delivery rewards do not dominate the gradient."""
+    value loss (docs/DESIGN.md §5), so ±100 delivery rewards do not dominate the gradient."""
     max_grad_norm: float = 10.0
     """Gradient-norm clip. Chosen here (original: off unless ``--g_clip_norm``), as MAPPO."""
     recurrent: bool = False

@@ -1,4 +1,4 @@
-"""The MAPPO update on option-level batches (DESIGN §5; Yu et al. 2021's reference defaults).
+"""The MAPPO update on option-level batches (docs/DESIGN.md §5; Yu et al. 2021's defaults).
 
 Actor and critic are separate networks with separate Adam optimisers and separate gradient-norm
 clipping, as in MAPPO. The actor's objective is PPO's clipped surrogate on the ratio of
@@ -22,7 +22,7 @@ from maopg.policy import CentralCritic, OptionPolicy
 
 @dataclass(frozen=True)
 class PPOConfig:
-    """Hyper-parameters of one PPO update (defaults: MAPPO reference, DESIGN §5)."""
+    """Hyper-parameters of one PPO update (defaults: MAPPO reference, docs/DESIGN.md §5)."""
 
     epochs: int = 10
     num_minibatches: int = 1

@@ -16,9 +16,9 @@ the physics, the option executions and the observations bit for bit, since the s
 deterministic given seed and actions. A replay whose decision point differs from the recorded
 one (fingerprint of observations, condition and tick count) raises instead of silently diverging.
 
-Rendering. A ``fork``ed child hangs if its parent already created a MuJoCo renderer (DESIGN §2),
-so workers are ``spawn``ed and the main process never builds an environment when workers are
-used: it asks worker 0 for the :class:`~maopg.env.contract.EnvSpec`.
+Rendering. A ``fork``ed child hangs if its parent already created a MuJoCo renderer
+(docs/DESIGN.md §2), so workers are ``spawn``ed and the main process never builds an environment
+when workers are used: it asks worker 0 for the :class:`~maopg.env.contract.EnvSpec`.
 """
 
 from __future__ import annotations

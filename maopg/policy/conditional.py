@@ -1,4 +1,4 @@
-"""Conditional distributions over joint options (DESIGN §4, paper §III-B..D): pure tensor math.
+"""Conditional distributions over joint options (docs/DESIGN.md §4, paper §III-B..D): tensor math.
 
 At a decision point only the agents in ``U`` (``choosing``) pick a new option; every other agent
 ``j`` keeps its running option ``c_j``. The paper's conditional policy is the joint categorical

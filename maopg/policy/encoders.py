@@ -1,4 +1,4 @@
-"""Observation encoders shared by the policies, the critic and Mac-DQN's Q-network (DESIGN §5).
+"""Observation encoders shared by the policies, the critic and Mac-DQN's Q-net (docs/DESIGN.md §5).
 
 Images go through one small Nature-style CNN whose weights are shared by every camera the
 encoder sees (agents' cameras look at the same world, and one set of weights learns from N times

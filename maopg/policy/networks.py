@@ -1,4 +1,4 @@
-"""Option policies and the centralized critic (DESIGN §4-§5).
+"""Option policies and the centralized critic (docs/DESIGN.md §4-§5).
 
 :class:`OptionPolicy` is the seam a learner depends on: given a batch of joint observations and
 the condition of each decision point (who chooses, what the others run, what is available) it

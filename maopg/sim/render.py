@@ -1,6 +1,6 @@
 """Headless rendering: one reused ``mujoco.Renderer`` serves every camera of a scene.
 
-Measured on CPU (llvmpipe, DESIGN section 2): shadows cost ~20x and 4x multisampling ~2x per
+Measured on CPU (llvmpipe, docs/DESIGN.md §2): shadows cost ~20x and 4x multisampling ~2x per
 frame, so observation cameras render with both off; videos keep the nicer settings. Creating
 one GL context per camera is slower than re-pointing a single renderer, and the output array
 is preallocated so a batch of observations costs no allocation.

@@ -110,7 +110,7 @@ class SceneTask(Task):
     Subclasses set ``self.scene`` and ``self.agent_robots`` (adapters in agent order); this
     class then provides holding, camera observations and cleanup. The renderer is created on
     first use, so building a task in a parent process never creates a GL context (a ``fork``ed
-    child would hang on it, DESIGN §2).
+    child would hang on it, docs/DESIGN.md §2).
     """
 
     scene: Scene

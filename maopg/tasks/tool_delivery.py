@@ -1,10 +1,11 @@
 """Tool Delivery: a Fetch and two Turtlebots bring three tools to a human, in MuJoCo.
 
 The rules, numbers and option semantics follow the canonical warehouse task the paper and
-Mac-DQN used (MacDeepMARL ``ObjSearchDelivery_v4``; DESIGN §7 and
-``shared/reference/tool_delivery_scripted_trace.csv``): −1 per tick, +100 per delivery of the
-tool the human needs now, −10 per failed pass, a human working through 4 stages of 18 ticks,
-at most 2 tools staged on the desk (FIFO), episode end at the last delivery or after 150 ticks.
+Mac-DQN used (MacDeepMARL ``ObjSearchDelivery_v4``; docs/DESIGN.md §7 and the scripted
+episode's trace ``tests/data/tool_delivery_scripted_trace.csv``): −1 per tick, +100 per delivery
+of the tool the human needs now, −10 per failed pass, a human working through 4 stages of 18
+ticks, at most 2 tools staged on the desk (FIFO), episode end at the last delivery or after 150
+ticks.
 What changes is the substrate: Turtlebots really drive (velocity servos, 0.6 m/s, one tick =
 1 s), so arrivals and hence option durations come from the physics, and the Fetch arm really
 carries tools from the shelf to the desk and into a Turtlebot's basket.
@@ -28,7 +29,7 @@ from maopg.sim.robots import ASSETS_DIR
 from maopg.sim.scene import SceneBuilder
 from maopg.tasks.base import SceneTask, TaskConfig
 
-# Layout facts of the canonical task (DESIGN §7), metres in the 7 m x 5 m world.
+# Layout facts of the canonical task (docs/DESIGN.md §7), metres in the 7 m x 5 m world.
 WORKSHOP = (6.0, 3.0)  # WA0, where the human takes deliveries
 TOOL_ROOM_WAIT = (2.5, 3.5)  # the tool-room wait spot (GoToTR)
 DESK_SPOTS = ((0.8, 3.0), (1.2, 3.0))  # where Turtlebot 0 / 1 waits for a pass

@@ -1,4 +1,4 @@
-"""Water Filling: a slow ground vehicle and a fast drone keep three jars filled (DESIGN §7).
+"""Water Filling: a slow ground vehicle and a fast drone keep three jars filled (docs/DESIGN.md §7).
 
 The paper's image-based task, physics-grounded in MuJoCo instead of AI2-THOR. A 10 m x 10 m
 living room whose furniture blocks ground paths (``assets/arenas/water_filling.xml``) holds three
@@ -72,7 +72,7 @@ GROUND_BAND = (0.02, 0.8)
 
 @dataclass(frozen=True)
 class Config(TaskConfig):
-    """Water Filling settings (DESIGN §7 defaults)."""
+    """Water Filling settings (docs/DESIGN.md §7 defaults)."""
 
     max_ticks: int = 300
     tick_seconds: float = 0.5

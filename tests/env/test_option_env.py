@@ -12,7 +12,7 @@ from maopg.rollout import RandomPolicy
 from maopg.tasks.tool_delivery import FETCH, TOOL_ROOM_WAIT, WORKSHOP
 
 GAMMA = 0.95
-# Option durations of the Fetch in ticks (DESIGN §7); the Turtlebots' depend on distance.
+# Option durations of the Fetch in ticks (docs/DESIGN.md §7); the Turtlebots' depend on distance.
 FETCH_TICKS = {"Wait": 1, "PassTo(0)": 4, "PassTo(1)": 4}
 FETCH_TICKS |= {f"SearchTool({j})": 6 for j in range(3)}
 TARGETS = {"GoToWS": WORKSHOP, "GoToTR": TOOL_ROOM_WAIT}

@@ -16,10 +16,27 @@ from eval.__main__ import main
 from eval.evaluate import evaluate
 from eval.plots import curve_table, plot_all
 from eval.policy import NetworkPolicy, QNetworkPolicy, load_trained
-from eval.reproduce import Cell, cell_state, reproduce, run_grid, trainable
-from eval.runs import discover_runs, mean_curve, peak, samples_to_threshold, trailing_mean
+from eval.reproduce import (
+    SEEDS,
+    Cell,
+    _train_args,
+    cell_state,
+    reproduce,
+    run_grid,
+    trainable,
+)
+from eval.runs import (
+    discover_runs,
+    final,
+    load_run,
+    mean_curve,
+    peak,
+    samples_to_threshold,
+    trailing_mean,
+)
 from eval.tables import peak_table, threshold_table
 from train.__main__ import main as train_main
+from train.run_log import DONE, FINAL
 
 TINY = [
     "batch_ticks=60",
@@ -34,7 +51,9 @@ TINY = [
 NAN = math.nan
 
 
-def _fake_run(root: Path, task: str, method: str, seed: int, samples, returns, paper=None):
+def _fake_run(
+    root: Path, task: str, method: str, seed: int, samples, returns, paper=None, finished=True
+):
     """A run directory as the trainer writes it, with known numbers."""
     run_dir = root / task / method / f"seed{seed}"
     run_dir.mkdir(parents=True)
@@ -45,7 +64,8 @@ def _fake_run(root: Path, task: str, method: str, seed: int, samples, returns, p
         writer.writerow(["iteration", "samples", "episode_return", "option_step_reward"])
         for k, (s, r, p) in enumerate(zip(samples, returns, paper, strict=True), 1):
             writer.writerow([k, s, "nan" if math.isnan(r) else repr(r), repr(p)])
-    (run_dir / "final.pt").write_bytes(b"")
+    if finished:
+        (run_dir / DONE).write_text("{}")
     return run_dir
 
 
@@ -89,14 +109,15 @@ def test_tables_on_fabricated_runs(fabricated):
     runs = discover_runs([fabricated])
     table = peak_table(runs, window=1)
     lines = table.splitlines()
+    # final = the last 10% of samples (> 360: the iteration at 400): async 220 and 150
     assert lines[2] == (
-        "| tool_delivery | async | 2 (2 finished) | 200.0 ± 20.0 | 20.00 ± 2.00 | 400 ± 0 |"
+        "| tool_delivery | async | 2 | 200.0 ± 20.0 | 185.0 ± 35.0 | 20.00 ± 2.00 | 400 ± 0 |"
     )
     assert lines[3] == (
-        "| tool_delivery | sync-cut | 2 (2 finished) | 227.5 ± 22.5 | 22.75 ± 2.25 | 400 ± 0 |"
+        "| tool_delivery | sync-cut | 2 | 227.5 ± 22.5 | 102.5 ± 102.5 | 22.75 ± 2.25 | 400 ± 0 |"
     )
     thresholds = threshold_table(runs, {"tool_delivery": 200}, window=1).splitlines()
-    assert thresholds[2] == "| tool_delivery | async | 200 | 300 ± 0 | 1/2 |"
+    assert thresholds[2] == "| tool_delivery | async | 200 | 300 | 1/2 |"
     assert thresholds[3] == "| tool_delivery | sync-cut | 200 | 300 ± 100 | 2/2 |"
     # smoothing over 2 iterations: async seed 0 peaks at (210 + 220) / 2
     smoothed = peak_table(runs, window=2, methods=["sync-cut", "async"]).splitlines()
@@ -108,11 +129,28 @@ def test_tables_on_fabricated_runs(fabricated):
     assert "| — | 0/2 |" in unknown
 
 
+def test_unfinished_runs_stay_out_of_statistics_unless_asked_for(fabricated):
+    """A seed in progress would shorten its method's common curve range and lower its peak;
+    a run killed before its first iteration has a header-only metrics.csv."""
+    _fake_run(fabricated, "tool_delivery", "async", 2, [100], [-50.0], finished=False)
+    starting = _fake_run(fabricated, "tool_delivery", "async", 3, [], [], finished=False)
+    assert load_run(starting).samples.size == 0 and math.isnan(final(load_run(starting)))
+    assert [r.seed for r in discover_runs([fabricated]) if r.method == "async"] == [0, 1]
+    every = discover_runs([fabricated], unfinished=True)
+    assert [r.seed for r in every if r.method == "async"] == [0, 1, 2, 3]
+    table = peak_table(every, methods=["async"]).splitlines()
+    # seed 3 reported nothing yet: it counts as a seed but adds no value (peaks 220, 180, -50)
+    assert table[2].startswith("| tool_delivery | async | 4 (2 unfinished) | 116.7 ± 119.0 |")
+    one = peak_table([r for r in every if r.seed == 2]).splitlines()
+    assert one[2] == "| tool_delivery | async | 1 (1 unfinished) | -50.0 | -50.0 | -5.00 | 100 |"
+    assert "| 20.00 ± 2.00 |" in peak_table(discover_runs([fabricated]), methods=["async"])
+
+
 def test_table_and_plot_commands(fabricated, tmp_path, capsys):
     out_md = tmp_path / "t.md"
     assert main(["table", str(fabricated), "--window", "1", "--out", str(out_md)]) == 0
     printed = capsys.readouterr().out
-    assert "| tool_delivery | async | 200 | 300 ± 0 | 1/2 |" in printed
+    assert "| tool_delivery | async | 200 | 300 | 1/2 |" in printed
     assert out_md.read_text() in printed
     assert main(["plot", str(fabricated), "--out", str(tmp_path / "fig"), "--window", "1"]) == 0
     png, svg = (
@@ -205,11 +243,17 @@ def test_video_of_a_checkpoint(trained_run, tmp_path, capsys):
         reader.close()
 
 
-def test_table_and_plot_on_a_real_run(trained_run, tmp_path):
+def test_table_and_plot_commands_on_a_real_run(trained_run, tmp_path, capsys):
     runs = discover_runs([trained_run.parents[2]])
     assert len(runs) == 1 and runs[0].finished and runs[0].samples[-1] >= 180
-    table = peak_table(runs).splitlines()
-    assert table[2].startswith("| tool_delivery | async | 1 (1 finished) |")
+    root = str(trained_run.parents[2])
+    assert main(["table", root, "--window", "1"]) == 0
+    printed = capsys.readouterr().out
+    peak_return = peak(runs[0])
+    assert f"| tool_delivery | async | 1 | {peak_return:.1f} |" in printed
+    assert main(["plot", root, "--out", str(tmp_path)]) == 0
+    assert "async (1 seed)" in (tmp_path / "curves_tool_delivery.svg").read_text()
+    assert imageio.imread(tmp_path / "curves_tool_delivery.png").ndim == 3
     assert [p.suffix for p in plot_all(runs, tmp_path)] == [".png", ".svg"]
 
 
@@ -223,11 +267,12 @@ def test_grid_skips_finished_runs_and_resumes_unfinished_ones(tmp_path):
     outcomes = run_grid(runs_root, methods=["async"], **{**grid, "seeds": [0]})
     assert outcomes == {Cell("tool_delivery", "async", 0): "done"}
     seed0 = Cell("tool_delivery", "async", 0).run_dir(runs_root.resolve())
-    finished_at = (seed0 / "final.pt").stat().st_mtime_ns
+    finished_at = (seed0 / FINAL).stat().st_mtime_ns
     seed1 = Cell("tool_delivery", "async", 1).run_dir(runs_root.resolve())
     args = ["--task", "tool_delivery", "--method", "async", "--seed", "1", "--run-dir"]
     train_main([*args, str(seed1), "progress=false", *TINY, "total_samples=60"])
-    (seed1 / "final.pt").unlink()
+    (seed1 / FINAL).unlink()
+    (seed1 / DONE).unlink()
     first_row = (seed1 / "metrics.csv").read_text().splitlines()[1]
     assert cell_state(seed0) == "finished" and cell_state(seed1) == "partial"
 
@@ -241,19 +286,45 @@ def test_grid_skips_finished_runs_and_resumes_unfinished_ones(tmp_path):
         Cell("tool_delivery", "no-such-method", 0): "unsupported",
         Cell("tool_delivery", "no-such-method", 1): "unsupported",
     }
-    assert (seed0 / "final.pt").stat().st_mtime_ns == finished_at  # not retrained
+    assert (seed0 / FINAL).stat().st_mtime_ns == finished_at  # not retrained
     rows = (seed1 / "metrics.csv").read_text().splitlines()
     assert rows[1] == first_row  # continued from its checkpoint, not restarted
     assert int(rows[-1].split(",")[1]) >= 120 and cell_state(seed1) == "finished"
     names = {p.name for p in written}
     assert {"curves_tool_delivery.png", "fig4_tool_delivery.svg", "tables.md"} <= names
     tables = (results / "tables.md").read_text()
-    assert "| tool_delivery | async | 2 (2 finished) |" in tables
+    assert "| tool_delivery | async | 2 |" in tables
     assert "Table I analog" in tables and "Table II analog" in tables
 
     # a second invocation has nothing left to train
     again = run_grid(runs_root, methods=["async"], log=lambda _: None, **grid)
     assert set(again.values()) == {"skipped"}
+
+    # the command regenerates the results, evaluation included, without training
+    argv = ["reproduce", "--runs", str(runs_root), "--results", str(results), "--no-train"]
+    (results / "tables.md").unlink()
+    assert main([*argv, "--tasks", "tool_delivery", "--eval-episodes", "1"]) == 0
+    assert (results / "tables.md").read_text() == tables
+    evaluation = (results / "evaluation.md").read_text()
+    for strategy in ("continue", "any", "all"):
+        assert f"| scripted | tool_delivery | {strategy} | 1 |" in evaluation
+        assert f"| random | tool_delivery | {strategy} | 1 |" in evaluation
+    assert "| async seed0 greedy | tool_delivery | continue | 1 |" in evaluation
+    assert "| async seed0 sampled | tool_delivery | continue | 1 |" in evaluation
+
+
+def test_the_default_grid_is_the_committed_one(tmp_path):
+    """Per-task seeds (Water Filling: 3) and Water Filling Mac-DQN's smaller replay."""
+    dry = run_grid(tmp_path, methods=["async", "mac-dqn"], dry_run=True, log=lambda _: None)
+    for task in ("tool_delivery", "water_filling"):
+        seeds = sorted({c.seed for c in dry if c.task == task})
+        assert seeds == list(SEEDS[task])
+    assert set(dry.values()) == {"would start"}
+    wf = _train_args(Cell("water_filling", "mac-dqn", 0), tmp_path, ["dqn.buffer_size=20000"])
+    assert wf[-2:] == ["dqn.buffer_size=10000", "dqn.buffer_size=20000"]  # the user's wins
+    assert "dqn.buffer_size=10000" not in _train_args(
+        Cell("tool_delivery", "mac-dqn", 0), tmp_path, []
+    )
 
 
 def test_grid_runs_train_as_a_subprocess(tmp_path):

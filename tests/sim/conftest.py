@@ -13,7 +13,7 @@ TD_HOLDERS = (None, "fetch/gripper", "tb0/basket", "tb1/basket")
 
 
 def build_td_scene(tb0=(3.0, 1.5), tb1=(3.0, 2.5)) -> Scene:
-    """The Tool Delivery scene as the task composes it (DESIGN section 7)."""
+    """The Tool Delivery scene as the task composes it (docs/DESIGN.md §7)."""
     builder = SceneBuilder("arenas/tool_delivery.xml", timestep=TD_TIMESTEP)
     builder.add_robot("fetch", "fetch", (0.9, 1.8, 0.0))
     builder.add_robot("tb0", "turtlebot", (*tb0, 0.0))

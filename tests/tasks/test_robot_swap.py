@@ -37,9 +37,10 @@ def test_a_robot_registered_from_a_file_is_used_by_name(monkeypatch) -> None:
     env.close()
 
 
-def test_the_rollout_cli_swaps_robots_by_config(capsys) -> None:
-    from maopg.rollout import main
+def test_the_eval_cli_swaps_robots_by_config(capsys) -> None:
+    from eval.__main__ import main
 
-    main(["--policy", "scripted", "--episodes", "1", "--set", "turtlebot_robot=diffbot"])
+    argv = ["evaluate", "--reference", "scripted", "--episodes", "1"]
+    main([*argv, "--set", "turtlebot_robot=diffbot"])
     out = capsys.readouterr().out
-    assert "solved 100%" in out
+    assert "| scripted | tool_delivery | continue | 1 |" in out and "| 100% |" in out

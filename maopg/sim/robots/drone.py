@@ -35,7 +35,7 @@ from maopg.sim.robots import base
 class DroneConstants:
     """Speeds and gains of the quadrotor (the one place they are set)."""
 
-    max_speed: float = 2.0  # m/s cruise (DESIGN §7: the fast robot)
+    max_speed: float = 2.0  # m/s cruise (docs/DESIGN.md §7: the fast robot)
     max_climb: float = 1.0  # m/s vertical speed cap
     #: Position loop: target speed = min(speed, pos_kp * d, sqrt(2 * brake_accel * d)).
     pos_kp: float = 2.0

@@ -2,7 +2,8 @@
 
 The drivetrain is the shared :class:`~maopg.sim.robots.base.PlanarGroundAdapter` (slide x/y
 velocity servos + yaw PD servo); only the constants differ from the Turtlebot: the vehicle is
-heavier (40 kg) and slower (0.5 m/s, DESIGN §7), and it can fill a jar within ``fill_radius``.
+heavier (40 kg) and slower (0.5 m/s, docs/DESIGN.md §7), and it can fill a jar within
+``fill_radius``.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ from maopg.sim.robots.base import PlanarGroundAdapter
 class VehicleConstants:
     """Speeds and servo gains of the vehicle (the one place they are set)."""
 
-    max_speed: float = 0.5  # m/s (DESIGN §7: the slow robot)
+    max_speed: float = 0.5  # m/s (docs/DESIGN.md §7: the slow robot)
     #: Velocity-servo gain of each slide (N per m/s). With 40 kg: 0.1 s time constant.
     kv: float = 400.0
     #: Yaw PD servo (N m per rad, N m per rad/s); yaw inertia 2.2 kg m^2 -> ~0.8 damping ratio.
@@ -28,7 +29,7 @@ class VehicleConstants:
     yaw_kv: float = 15.0
     #: Footprint radius (m) for path planning: the collision box's half-diagonal.
     radius: float = 0.36
-    #: A jar within this planar distance (m) of the base can be filled (DESIGN §7).
+    #: A jar within this planar distance (m) of the base can be filled (docs/DESIGN.md §7).
     fill_radius: float = 1.0
 
 
