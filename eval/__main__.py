@@ -91,7 +91,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         result = evaluate(env, policy, args.episodes, seed=args.seed, label=label)
     finally:
         env.close()
-    print(results_table([result]), end="")
+    print(results_table([result.summary]), end="")
     if args.json:
         print(f"wrote {write_result(result, args.json)}")
     return 0

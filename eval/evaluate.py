@@ -74,15 +74,14 @@ def evaluate(
     )
 
 
-def results_table(results: list[EvalResult]) -> str:
-    """Markdown table, one row per evaluated policy."""
+def results_table(summaries: list[dict[str, Any]]) -> str:
+    """Markdown table, one row per evaluated policy (:attr:`EvalResult.summary` dicts)."""
     header = (
         "| policy | task | strategy | episodes | return | success | length "
         "| option-step reward (paper's metric) |\n|---|---|---|---|---|---|---|---|\n"
     )
     rows = []
-    for result in results:
-        s = result.summary
+    for s in summaries:
         rows.append(
             f"| {s['label']} | {s['task']} | {s['strategy']} | {s['episodes']} "
             f"| {s['return_mean']:.1f} ± {s['return_std']:.1f} | {s['success_rate']:.0%} "

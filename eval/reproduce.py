@@ -30,13 +30,14 @@ from __future__ import annotations
 
 import contextlib
 import io
+import json
 import subprocess
 import sys
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from eval.evaluate import EvalResult, evaluate, results_table
+from eval.evaluate import evaluate, results_table
 from eval.plots import curve_table, plot_task
 from eval.runs import RunData, discover_runs
 from eval.tables import peak_table, threshold_table
@@ -58,6 +59,8 @@ CELL_OVERRIDES: dict[tuple[str, str], tuple[str, ...]] = {
     ("water_filling", "mac-dqn"): ("dqn.buffer_size=10000",),
 }
 REFERENCE_STRATEGIES = ("continue", "any", "all")
+EVALUATION = "evaluation.json"
+"""A seed-0 run's cached entry of ``evaluation.md``."""
 FIG4_METHODS = ("async", "sync-cut", "sync-wait", "end2end")
 TABLE1_METHODS = ("async", "mac-dqn")
 TABLE2_METHODS = ("async", "partial")
@@ -231,11 +234,25 @@ def write_results(
     return written
 
 
+def _cached(path: Path, key: dict, compute: Callable[[], list[dict]]) -> list[dict]:
+    """Evaluation summaries stored in ``path`` if they were made for ``key`` (episodes, tasks),
+    else computed and stored: the evaluations are deterministic and, on Water Filling, take
+    minutes, so a rerun of the results only evaluates what is new (delete the file to redo)."""
+    if path.exists():
+        saved = json.loads(path.read_text())
+        if saved["key"] == key:
+            return saved["results"]
+    results = compute()
+    path.write_text(json.dumps({"key": key, "results": results}, indent=2) + "\n")
+    return results
+
+
 def reference_results(
     tasks: Sequence[str], episodes: int, strategies: Sequence[str] = REFERENCE_STRATEGIES
-) -> list[EvalResult]:
+) -> list[dict]:
     """The scripted and uniform-random policies of each task under each strategy: the levels
-    every learning curve is read against (state observations: neither policy looks at images)."""
+    every learning curve is read against (state observations: neither policy looks at images).
+    """
     from maopg.env import make_env
     from maopg.rollout import REFERENCE_POLICIES, reference_policy
 
@@ -246,49 +263,60 @@ def reference_results(
             try:
                 for name in REFERENCE_POLICIES:
                     policy = reference_policy(name, task, env.spec)
-                    results.append(evaluate(env, policy, episodes, label=name))
+                    results.append(evaluate(env, policy, episodes, label=name).summary)
             finally:
                 env.close()
     return results
 
 
-def policy_results(runs: Sequence[RunData], episodes: int) -> list[EvalResult]:
-    """Each task × method's seed-0 policy (``final.pt``), greedy and sampled, over the same
-    seeded episodes."""
+def policy_results(run: RunData, episodes: int) -> list[dict]:
+    """A run's final policy (``final.pt``), greedy and sampled, over the same seeded episodes."""
     from eval.policy import load_trained
 
+    trained = load_trained(run.path / FINAL)
+    env = trained.make_env(0)
     results = []
-    for run in runs:
-        if run.seed != 0 or not (run.path / FINAL).exists():
-            continue
-        trained = load_trained(run.path / FINAL)
-        env = trained.make_env(0)
-        try:
-            for greedy in (True, False):
-                label = f"{run.method} seed0 {'greedy' if greedy else 'sampled'}"
-                actor = trained.actor(greedy=greedy, seed=0)
-                results.append(evaluate(env, actor, episodes, label=label))
-        finally:
-            env.close()
+    try:
+        for greedy in (True, False):
+            label = f"{run.method} seed{run.seed} {'greedy' if greedy else 'sampled'}"
+            actor = trained.actor(greedy=greedy, seed=0)
+            results.append(evaluate(env, actor, episodes, label=label).summary)
+    finally:
+        env.close()
     return results
 
 
 def write_evaluation(
     runs: Sequence[RunData], results_dir: str | Path, *, episodes: int = 10
 ) -> Path:
-    """``evaluation.md``: :func:`reference_results` and :func:`policy_results`."""
+    """``evaluation.md``: :func:`reference_results` (cached in ``reference.json`` beside it) and
+    :func:`policy_results` of every seed-0 run that kept its weights (cached in the run
+    directory's ``evaluation.json``)."""
+    out = Path(results_dir)
     tasks = sorted({r.task for r in runs})
+    reference = _cached(
+        out / "reference.json",
+        {"episodes": episodes, "tasks": tasks},
+        lambda: reference_results(tasks, episodes),
+    )
+    trained: list[dict] = []
+    for run in runs:
+        if run.seed == 0 and (run.path / FINAL).exists():
+            trained += _cached(
+                run.path / EVALUATION,
+                {"episodes": episodes},
+                lambda run=run: policy_results(run, episodes),
+            )
     text = (
         "# Evaluation\n\nGenerated by `python -m eval reproduce`: every policy plays episodes "
         f"with reset seeds 0–{episodes - 1} (mean ± std over episodes).\n\n"
         "## Reference policies\n\n"
-        + results_table(reference_results(tasks, episodes))
+        + results_table(reference)
         + "\n## Trained policies (seed 0 of each method, after training)\n\n"
         "Greedy takes the mode of the policy (Mac-DQN: ε = 0); sampled draws from it as in "
-        "training (Mac-DQN: ε-greedy at its final ε).\n\n"
-        + results_table(policy_results(runs, episodes))
+        "training (Mac-DQN: ε-greedy at its final ε).\n\n" + results_table(trained)
     )
-    path = Path(results_dir) / "evaluation.md"
+    path = out / "evaluation.md"
     path.write_text(text)
     return path
 

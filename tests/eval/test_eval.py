@@ -311,6 +311,18 @@ def test_grid_skips_finished_runs_and_resumes_unfinished_ones(tmp_path):
         assert f"| random | tool_delivery | {strategy} | 1 |" in evaluation
     assert "| async seed0 greedy | tool_delivery | continue | 1 |" in evaluation
     assert "| async seed0 sampled | tool_delivery | continue | 1 |" in evaluation
+    # evaluations are cached per run (and redone for another episode count)
+    cache = seed0 / "evaluation.json"
+    cached = json.loads(cache.read_text())
+    cached["results"][0]["label"] = "from the cache"
+    cache.write_text(json.dumps(cached))
+    assert main([*argv, "--eval-episodes", "1"]) == 0
+    assert "| from the cache |" in (results / "evaluation.md").read_text()
+    assert main([*argv, "--eval-episodes", "2"]) == 0
+    assert (
+        "| async seed0 greedy | tool_delivery | continue | 2 |"
+        in (results / "evaluation.md").read_text()
+    )
 
 
 def test_the_default_grid_is_the_committed_one(tmp_path):
