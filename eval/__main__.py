@@ -164,6 +164,7 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
         window=args.window,
         train=not args.no_train,
         eval_episodes=args.eval_episodes,
+        reference_episodes=args.reference_episodes,
         tasks=args.tasks,
         methods=args.methods,
         seeds=args.seeds,
@@ -247,7 +248,13 @@ def build_parser() -> argparse.ArgumentParser:
         "--eval-episodes",
         type=int,
         default=10,
-        help="episodes per policy in evaluation.md (0: skip it)",
+        help="episodes per trained policy in evaluation.md (0: skip evaluation.md)",
+    )
+    p.add_argument(
+        "--reference-episodes",
+        type=int,
+        default=100,
+        help="episodes per reference policy in evaluation.md",
     )
     p.add_argument("--in-process", action="store_true", help="train in this process")
     p.add_argument("--dry-run", action="store_true", help="list what would run; train nothing")
