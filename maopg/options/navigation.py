@@ -134,16 +134,17 @@ class GoalFieldPlanner:
     ) -> list[np.ndarray]:
         """Waypoints (after ``start``) ending within ``radius`` of ``goal``.
 
-        A start inside an inflated obstacle first goes to the nearest free cell. Raises
-        ``ValueError`` when the goal disc cannot be reached from there.
+        A start inside an inflated obstacle first goes to the nearest free cell from which the
+        goal disc can be reached (see :meth:`_entry`).
         """
         grid = self.grid
-        s_xy = self._fallback.nearest_free(start)
+        field, downhill = self._tables(goal, radius)
+        s_xy = self._entry(start, field)
         cell = grid.cell(s_xy)
         key = (cell, round(float(goal[0]), 6), round(float(goal[1]), 6), float(radius))
         path = self._paths.get(key)
         if path is None:
-            path = self._descend(cell, *self._tables(goal, radius), goal)
+            path = self._descend(cell, field, downhill)
             if len(self._paths) >= _PATH_CACHE_SIZE:
                 self._paths.clear()
             self._paths[key] = path
@@ -151,10 +152,21 @@ class GoalFieldPlanner:
             return [s_xy, *path]
         return list(path)
 
-    def _descend(self, cell: tuple[int, int], field: np.ndarray, downhill: dict, goal):
-        """Follow the field downhill from ``cell`` to the goal disc, then shortcut."""
-        if not math.isfinite(field[cell]):
-            raise ValueError(f"no collision-free path from cell {cell} to goal {tuple(goal)}")
+    def _entry(self, start: Sequence[float], field: np.ndarray) -> np.ndarray:
+        """Where the path starts: ``start`` itself, or — for a robot pushed into an inflated
+        obstacle — the nearest free cell centre, unless that cell lies in a free pocket cut
+        off from the goal (between a wall and furniture, say), in which case the nearest cell
+        that reaches the goal. Reachable cells always exist (``_tables`` checks the disc)."""
+        s_xy = self._fallback.nearest_free(start)
+        if math.isfinite(field[self.grid.cell(s_xy)]):
+            return s_xy
+        reachable = np.argwhere(np.isfinite(field))
+        centers = np.asarray(self.grid.origin) + self.grid.resolution * reachable[:, ::-1]
+        return centers[np.argmin(np.hypot(*(centers - np.asarray(start[:2])).T))]
+
+    def _descend(self, cell: tuple[int, int], field: np.ndarray, downhill: dict):
+        """Follow the field downhill from ``cell`` (a reachable one) to the goal disc, then
+        shortcut."""
         cells = [cell]
         while cell in downhill:
             cell = downhill[cell]
