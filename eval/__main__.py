@@ -84,7 +84,7 @@ def _thresholds(items: list[str]) -> dict[str, float]:
 
 
 def cmd_evaluate(args: argparse.Namespace) -> int:
-    from eval.evaluate import evaluate, results_table, write_result
+    from eval.evaluate import choices_lines, evaluate, results_table, write_result
 
     label, env, policy = _policy_and_env(args)
     try:
@@ -92,6 +92,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     finally:
         env.close()
     print(results_table([result.summary]), end="")
+    print("\n".join(["options chosen:", *choices_lines(result)]))
     if args.json:
         print(f"wrote {write_result(result, args.json)}")
     return 0

@@ -9,13 +9,14 @@ own field, and the two must never be compared with each other.
 from __future__ import annotations
 
 import json
+from collections import Counter
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from maopg.env import OptionEnv
+from maopg.env import DecisionPoint, OptionEnv
 from maopg.rollout import ReferencePolicy, run_episode
 
 
@@ -32,6 +33,9 @@ class EvalResult:
     solved: list[bool]
     option_step_rewards: list[float] = field(repr=False)
     """Summed reward of every decision step of every episode."""
+    choices: dict[str, dict[str, int]] = field(default_factory=dict, repr=False)
+    """Agent → option name → how often the agent chose it, over all episodes: shows a policy
+    that is stuck repeating one option, which a return alone does not."""
 
     @property
     def summary(self) -> dict[str, Any]:
@@ -61,7 +65,16 @@ def evaluate(
     """Play ``episodes`` episodes; episode ``j`` is reset with seed ``seed + j``."""
     if episodes < 1:
         raise ValueError(f"episodes must be >= 1, got {episodes}")
-    results = [run_episode(env, policy, seed=seed + j) for j in range(episodes)]
+    agents = env.spec.agents
+    choices: list[Counter[str]] = [Counter() for _ in agents]
+
+    def counted(point: DecisionPoint) -> np.ndarray:
+        joint = np.asarray(policy(point))
+        for i in np.flatnonzero(point.choosing):
+            choices[i][agents[i].option_names[joint[i]]] += 1
+        return joint
+
+    results = [run_episode(env, counted, seed=seed + j) for j in range(episodes)]
     return EvalResult(
         label=label,
         task=env.spec.task,
@@ -71,7 +84,18 @@ def evaluate(
         lengths=[r.ticks for r in results],
         solved=[r.solved for r in results],
         option_step_rewards=[x for r in results for x in r.rewards],
+        choices={a.name: dict(c.most_common()) for a, c in zip(agents, choices, strict=True)},
     )
+
+
+def choices_lines(result: EvalResult, top: int = 4) -> list[str]:
+    """Each agent's most chosen options with their share of its choices."""
+    lines = []
+    for agent, counts in result.choices.items():
+        total = sum(counts.values())
+        common = ", ".join(f"{name} {n / total:.0%}" for name, n in list(counts.items())[:top])
+        lines.append(f"{agent}: {total} choices — {common}")
+    return lines
 
 
 def results_table(summaries: list[dict[str, Any]]) -> str:

@@ -35,6 +35,7 @@ from eval.runs import (
     trailing_mean,
 )
 from eval.tables import peak_table, threshold_table
+from maopg.rollout import run_episode
 from train.__main__ import main as train_main
 from train.run_log import DONE, FINAL
 
@@ -196,9 +197,24 @@ def test_evaluate_a_checkpoint(trained_run, tmp_path, capsys):
     assert s["episodes"] == 3 and 0.0 <= s["success_rate"] <= 1.0
     assert s["return_mean"] == pytest.approx(np.mean(sampled.returns))
 
+    # option choices: one per choosing agent per decision point, named by the agent's options
+    env = trained.make_env(0)
+    try:
+        choosing = []
+        policy = NetworkPolicy(trained.policy)
+        run_episode(env, lambda p: (choosing.append(p.choosing.copy()), policy(p))[1], seed=5)
+        one = evaluate(env, NetworkPolicy(trained.policy), 1, seed=5)
+    finally:
+        env.close()
+    counts = {a.name: int(np.sum([c[i] for c in choosing])) for i, a in enumerate(env.spec.agents)}
+    assert {name: sum(c.values()) for name, c in one.choices.items()} == counts
+    fetch = env.spec.agents[2]
+    assert set(one.choices[fetch.name]) <= set(fetch.option_names)
+
     out = tmp_path / "e.json"
     main(["evaluate", "--checkpoint", str(trained_run), "--episodes", "2", "--json", str(out)])
-    assert "| async seed0 @" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "| async seed0 @" in printed and f"\n{fetch.name}: " in printed
     saved = json.loads(out.read_text())
     assert saved["episodes"] == 2 and len(saved["per_episode"]["returns"]) == 2
 
