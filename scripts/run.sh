@@ -11,4 +11,4 @@ RUN=${RUN:-runs/tool_delivery/async/seed0}
 # Greedy (the task is deterministic, so every greedy episode is the same) and sampled options.
 .venv/bin/python -m eval evaluate --checkpoint "$RUN" --episodes 5 --json "$RUN/eval_greedy.json"
 .venv/bin/python -m eval evaluate --checkpoint "$RUN" --episodes 20 --sample --json "$RUN/eval.json"
-echo "done: $RUN (metrics.csv, tb/, final.pt, learning_curve.png, rollout.mp4)"
+echo "done: $RUN (metrics.csv, tb/, final.pt, learning_curve.png, rollout.mp4, done.json)"
