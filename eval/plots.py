@@ -69,8 +69,10 @@ def plot_task(
     out_stem = Path(out_stem)
     out_stem.parent.mkdir(parents=True, exist_ok=True)
     paths = [out_stem.with_suffix(".png"), out_stem.with_suffix(".svg")]
-    for path in paths:
-        fig.savefig(path, dpi=130)
+    # No date and fixed SVG ids: the same runs redraw byte-identical files (no noise in git).
+    with plt.rc_context({"svg.hashsalt": "maopg"}):
+        fig.savefig(paths[0], dpi=130, metadata={"Software": None})
+        fig.savefig(paths[1], dpi=130, metadata={"Date": None})
     plt.close(fig)
     return paths
 

@@ -162,6 +162,9 @@ def test_table_and_plot_commands(fabricated, tmp_path, capsys):
     assert image.ndim == 3 and image.shape[0] > 300 and image.shape[1] > 500
     text = svg.read_text()
     assert "async (2 seeds)" in text and "sync-cut (2 seeds)" in text
+    first = png.read_bytes(), text
+    assert main(["plot", str(fabricated), "--out", str(tmp_path / "fig"), "--window", "1"]) == 0
+    assert (png.read_bytes(), svg.read_text()) == first  # redrawn byte for byte
     assert "low-level samples (ticks)" in text
     csv_text = curve_table(discover_runs([fabricated]), window=1).splitlines()
     assert csv_text[0] == "method,samples,mean,std,seeds"
