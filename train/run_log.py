@@ -120,6 +120,12 @@ def write_done(run_dir: Path, *, iterations: int, samples: int, wall_time: float
     return path
 
 
+def read_done(run_dir: Path) -> dict[str, Any] | None:
+    """The ``done.json`` record of a finished run, ``None`` while it is not finished."""
+    path = run_dir / DONE
+    return json.loads(path.read_text()) if path.exists() else None
+
+
 def read_metrics(path: Path) -> list[dict[str, str]]:
     with path.open(newline="") as handle:
         return list(csv.DictReader(handle))

@@ -14,7 +14,6 @@ and each environment's (episode, options since reset), so a resumed run continue
 
 from __future__ import annotations
 
-import json
 import math
 import random
 import shutil
@@ -57,6 +56,7 @@ from train.run_log import (
     VIDEO,
     RunLog,
     plot_learning_curve,
+    read_done,
     write_done,
 )
 
@@ -326,11 +326,11 @@ def train(config: TrainConfig, *, resume: bool = False, overwrite: bool = False)
     """Train ``config`` (resolved here) and return the run directory."""
     config = _prepare_run_dir(config.resolved(), resume, overwrite)
     run_dir = Path(config.run_dir)  # type: ignore[arg-type]
-    done = run_dir / DONE
-    if resume and done.exists():
-        if json.loads(done.read_text())["samples"] >= config.total_samples:
+    done = read_done(run_dir) if resume else None
+    if done is not None:
+        if done["samples"] >= config.total_samples:
             return run_dir  # finished: --resume has nothing to do (even with no checkpoint)
-        done.unlink()  # a larger budget: unfinished again until it is reached
+        (run_dir / DONE).unlink()  # a larger budget: unfinished again until it is reached
     checkpoint_path = run_dir / CHECKPOINT
     resume = resume and checkpoint_path.exists()
     if config.torch_threads:
