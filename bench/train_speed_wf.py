@@ -1,11 +1,16 @@
-"""Throughput of the whole training loop on Water Filling with RGB observations.
+"""Wall-clock of training on Water Filling with RGB observations: 200K samples in ≤ 30 min?
 
-Run: ``.venv/bin/python bench/train_speed_wf.py [--samples 10000]``. Trains `async` (64 px
-cameras on both robots, the default 2,000-tick batches) for ``--samples`` low-level samples in a
-scratch run directory and prints the samples/s of the loop (collection + PPO update, first
-iteration excluded as warm-up) and the wall-clock it implies for 200K samples. If the
-reproduction grid holds a finished 200K-sample run (``results/runs/water_filling/async``), its
-measured wall-clock is printed too. Target (issue 5): 200K samples in ≤ 30 minutes on 2 cores.
+Run: ``.venv/bin/python bench/train_speed_wf.py [--samples 10000]``. Target (issue 5): 200K
+samples of `async` (64 px cameras on both robots, the default 2,000-tick batches) in ≤ 30 minutes
+on 2 cores.
+
+The verdict comes from the finished 200K-sample `async` runs of the reproduction grid
+(``results/runs/water_filling/async``), each timed by its own wall-clock log. A short run cannot
+give it: cameras render and the CNN runs at every decision point, and the policy makes more
+decisions as it learns (about 350-400 per 1,000 ticks untrained, 550-830 trained), so the first
+iterations are the fastest of a run. The short run (``--samples``, first iteration excluded as
+warm-up) is printed after it, as the loop's throughput with an untrained policy under the load
+printed above it.
 """
 
 from __future__ import annotations
@@ -16,12 +21,19 @@ from pathlib import Path
 
 import numpy as np
 
-from eval.runs import load_run
+from eval.runs import RunData, load_run
 from maopg.sysinfo import markdown
 from train.config import TrainConfig
 from train.trainer import train
 
 TARGET_SAMPLES = 200_000
+TARGET_MINUTES = 30.0
+
+
+def _decisions_per_1k(run: RunData, rows: slice) -> float:
+    """Option steps per 1,000 ticks over the iterations ``rows``."""
+    ticks = np.diff(run.samples, prepend=0.0)[rows]
+    return float(1000 * run.metrics["option_steps"][rows].sum() / ticks.sum())
 
 
 def main() -> None:
@@ -29,6 +41,36 @@ def main() -> None:
     parser.add_argument("--samples", type=int, default=10_000)
     parser.add_argument("--runs", type=Path, default=Path("results/runs"))
     args = parser.parse_args()
+
+    print("### Training wall-clock, Water Filling RGB (`bench/train_speed_wf.py`)\n")
+    print(markdown())
+    print(f"- target: `async`, {TARGET_SAMPLES:,} samples in ≤ {TARGET_MINUTES:.0f} min\n")
+    print("Full runs of the reproduction grid, each timed by its own `metrics.csv` (the load of")
+    print("the machine during a grid run is not logged; other runs often shared the cores):\n")
+    print("| run | samples | wall-clock | samples/s | decisions per 1K ticks, first → last 10% |")
+    print("|---|---|---|---|---|")
+    minutes = []
+    for seed_dir in sorted((args.runs / "water_filling" / "async").glob("seed*")):
+        run = load_run(seed_dir)
+        if not (run.finished and run.samples[-1] >= TARGET_SAMPLES):
+            continue
+        wall = run.metrics["wall_time"][-1] / 60
+        minutes.append(wall)
+        tenth = max(1, len(run.samples) // 10)
+        first = _decisions_per_1k(run, slice(0, tenth))
+        last = _decisions_per_1k(run, slice(-tenth, None))
+        print(
+            f"| {seed_dir} | {run.samples[-1]:,.0f} | {wall:.1f} min "
+            f"| {run.samples[-1] / (wall * 60):.0f} | {first:.0f} → {last:.0f} |"
+        )
+    if minutes:
+        met = sum(m <= TARGET_MINUTES for m in minutes)
+        print(
+            f"\nTarget met by {met} of {len(minutes)} runs (mean {np.mean(minutes):.1f} min, "
+            f"slowest {max(minutes):.1f} min)."
+        )
+    else:
+        print("\nNo finished 200K-sample run: train one with `python -m eval reproduce`.")
 
     with tempfile.TemporaryDirectory() as scratch:
         config = TrainConfig(
@@ -39,29 +81,14 @@ def main() -> None:
             progress=False,
             video=False,
         )
-        run = load_run(train(config))
-    ticks = np.diff(run.samples)
-    seconds = np.diff(run.metrics["wall_time"])
-    rate = ticks.sum() / seconds.sum()
-    print("### Training-loop throughput, Water Filling RGB (`bench/train_speed_wf.py`)\n")
-    print(markdown())
-    print(f"- `async`, 64 px RGB on both robots, {args.samples:,} samples, default config\n")
-    print("| measured samples/s | implied wall-clock for 200K samples | target |")
-    print("|---|---|---|")
-    minutes = TARGET_SAMPLES / rate / 60
-    verdict = "met" if minutes <= 30 else "NOT met"
-    print(f"| {rate:,.0f} | {minutes:.1f} min | ≤ 30 min: {verdict} |")
-    grid = args.runs / "water_filling" / "async"
-    for seed_dir in sorted(grid.glob("seed*")):
-        done = load_run(seed_dir)
-        if done.finished and done.samples[-1] >= TARGET_SAMPLES:
-            wall = done.metrics["wall_time"][-1] / 60
-            samples = done.samples[-1]
-            print(
-                f"\nMeasured: {seed_dir} took {wall:.1f} min for {samples:,.0f} samples "
-                "(its own wall-clock log; the reproduction grid trains two runs at a time on "
-                "the 2 cores, so this is slower than the quiet-machine figure above)."
-            )
+        short = load_run(train(config))
+    rate = np.diff(short.samples).sum() / np.diff(short.metrics["wall_time"]).sum()
+    decisions = _decisions_per_1k(short, slice(1, None))
+    print(
+        f"\nShort run under the load above, untrained policy ({args.samples:,} samples, "
+        f"{decisions:.0f} decisions per 1K ticks): {rate:,.0f} samples/s, i.e. "
+        f"{TARGET_SAMPLES / rate / 60:.1f} min for 200K if the policy never changed."
+    )
 
 
 if __name__ == "__main__":

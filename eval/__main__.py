@@ -226,8 +226,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("reproduce", help="resumable methods × tasks × seeds grid, then results")
     p.add_argument("--runs", type=Path, default=Path("results/runs"))
     p.add_argument("--results", type=Path, default=Path("results"))
-    p.add_argument("--tasks", nargs="+", default=list(TASKS))
-    p.add_argument("--methods", nargs="+", default=list(METHODS))
+    p.add_argument("--tasks", nargs="+", default=list(TASKS), choices=TASKS)
+    p.add_argument("--methods", nargs="+", default=list(METHODS), choices=METHODS)
     p.add_argument(
         "--seeds",
         nargs="+",

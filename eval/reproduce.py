@@ -13,11 +13,12 @@ The grid's default seeds are per task (:data:`SEEDS`) and a few cells carry sett
 
 Runs are launched one after another as ``python -m train`` subprocesses (a crash or an
 out-of-memory kill loses one run, not the grid) or, with ``in_process=True``, by calling
-:func:`train.trainer.train` (faster to start; used by the tests). A method the trainer does not
-know is reported as unsupported instead of failing the grid. ``overrides`` (``key=value`` train
-config fields) apply to every run and must be the same on every invocation of a grid, because a
-resumed run refuses a config that differs from its saved one. Grid runs record no rollout video
-(``video=false``; ``python -m eval video`` makes one from any finished run).
+:func:`train.trainer.train` (faster to start; used by the tests). An unknown task or method is
+an error before anything runs (a typo must not pass as an empty grid). ``overrides``
+(``key=value`` train config fields) apply to every run and must be the same on every invocation
+of a grid, because a resumed run refuses a config that differs from its saved one. Grid runs
+record no rollout video (``video=false``; ``python -m eval video`` makes one from any finished
+run).
 
 Afterwards every figure and table is regenerated from the finished runs under ``<runs>`` into
 ``<results>``: per-task learning curves (all methods, and the Fig. 4 methods), their CSV,
@@ -28,8 +29,7 @@ episodes (the levels the curves are read against, and greedy vs sampled action c
 
 from __future__ import annotations
 
-import contextlib
-import io
+import hashlib
 import json
 import subprocess
 import sys
@@ -85,19 +85,6 @@ def cell_state(run_dir: Path) -> str:
     return "new"
 
 
-def trainable(method: str) -> bool:
-    """Whether ``python -m train`` accepts ``--method method`` (asks its own argument parser, so
-    the answer follows however the trainer wires its methods in)."""
-    from train.__main__ import parse_args
-
-    try:
-        with contextlib.redirect_stderr(io.StringIO()):
-            parse_args(["--method", method])
-    except SystemExit:
-        return False
-    return True
-
-
 def _train_args(cell: Cell, run_dir: Path, overrides: Sequence[str]) -> list[str]:
     return [
         "--task",
@@ -148,11 +135,14 @@ def run_grid(
     log=print,
 ) -> dict[Cell, str]:
     """Bring every cell of the grid to ``finished``; returns each cell's outcome:
-    ``skipped`` (already finished), ``done``, ``failed: ...``, ``unsupported`` or, with
-    ``dry_run``, ``would start`` / ``would resume``. ``seeds`` replaces every task's default
-    seeds (:data:`SEEDS`)."""
+    ``skipped`` (already finished), ``done``, ``failed: ...`` or, with ``dry_run``, ``would
+    start`` / ``would resume``. ``seeds`` replaces every task's default seeds (:data:`SEEDS`).
+    Raises ``ValueError`` for a task or method outside :data:`TASKS` / :data:`METHODS`."""
+    for kind, given, known in (("task", tasks, TASKS), ("method", methods, METHODS)):
+        unknown = [x for x in given if x not in known]
+        if unknown:
+            raise ValueError(f"unknown {kind}(s) {unknown}; choose from {list(known)}")
     runs_root = Path(runs_root).resolve()
-    supported = {m for m in methods if trainable(m)}
     outcomes: dict[Cell, str] = {}
     # Seed-major: an interrupted grid has every method at the same number of seeds.
     cells = [
@@ -167,8 +157,6 @@ def run_grid(
         name = f"[{k}/{len(cells)}] {cell.task}/{cell.method}/seed{cell.seed}"
         if state == "finished":
             outcomes[cell] = "skipped"
-        elif cell.method not in supported:
-            outcomes[cell] = "unsupported"
         elif dry_run:
             outcomes[cell] = "would resume" if state == "partial" else "would start"
         else:
@@ -234,10 +222,33 @@ def write_results(
     return written
 
 
+def _sha256(paths: Sequence[Path], root: Path) -> str:
+    digest = hashlib.sha256()
+    for path in paths:
+        digest.update(path.relative_to(root).as_posix().encode() + b"\0")
+        digest.update(path.read_bytes())
+    return digest.hexdigest()
+
+
+def code_digest() -> str:
+    """sha256 of everything an evaluation's numbers depend on besides the weights: the
+    simulator, tasks, policies and reference policies (``maopg/``), the robot and scene models
+    (``assets/``) and the evaluation's own modules. Any change invalidates cached evaluations,
+    so ``evaluation.md`` always describes the code it is committed with."""
+    files = [
+        *(REPO / "maopg").rglob("*.py"),
+        *(p for p in (REPO / "assets").rglob("*") if p.is_file()),
+        *(REPO / "eval" / name for name in ("evaluate.py", "policy.py")),
+        REPO / "train" / "config.py",
+    ]
+    return _sha256(sorted(files), REPO)
+
+
 def _cached(path: Path, key: dict, compute: Callable[[], list[dict]]) -> list[dict]:
-    """Evaluation summaries stored in ``path`` if they were made for ``key`` (episodes, tasks),
-    else computed and stored: the evaluations are deterministic and, on Water Filling, take
-    minutes, so a rerun of the results only evaluates what is new (delete the file to redo)."""
+    """Evaluation summaries stored in ``path`` if they were made for ``key`` (episodes, the
+    code's and, for a trained policy, the weights' sha256), else computed and stored: the
+    evaluations are deterministic and, on Water Filling, take minutes, so a rerun of the results
+    only evaluates what is new or changed (delete the file to redo)."""
     if path.exists():
         saved = json.loads(path.read_text())
         if saved["key"] == key:
@@ -298,17 +309,19 @@ def write_evaluation(
     directory's ``evaluation.json``)."""
     out = Path(results_dir)
     tasks = sorted({r.task for r in runs})
+    code = code_digest()
     reference = _cached(
         out / "reference.json",
-        {"episodes": reference_episodes, "tasks": tasks},
+        {"episodes": reference_episodes, "tasks": tasks, "code": code},
         lambda: reference_results(tasks, reference_episodes),
     )
     trained: list[dict] = []
     for run in runs:
         if run.seed == 0 and (run.path / FINAL).exists():
+            weights = _sha256([run.path / FINAL], run.path)
             trained += _cached(
                 run.path / EVALUATION,
-                {"episodes": episodes},
+                {"episodes": episodes, "code": code, "weights": weights},
                 lambda run=run: policy_results(run, episodes),
             )
     text = (

@@ -20,7 +20,7 @@ DEFAULT_THRESHOLDS: dict[str, float] = {
     # 200 = 77% of the scripted policy's 259 (docs/DESIGN.md §7): a policy that delivers all
     # three tools with little waste.
     "tool_delivery": 200.0,
-    # Near the scripted heuristic (about −2.8e5; random options about −4.5e5: results/
+    # Near the scripted heuristic (about −2.9e5; random options about −4.5e5: results/
     # evaluation.md, from `python -m eval reproduce`). Eq. 6 charges ~−1000 per tick per dry
     # jar, so the paper's −304 (another simulator and metric) is not comparable.
     "water_filling": -300_000.0,

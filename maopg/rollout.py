@@ -96,6 +96,8 @@ def evaluate_reference(
     strategy: str = "continue",
     overrides: dict[str, object] | None = None,
 ) -> list[EpisodeResult]:
+    """``episodes`` episodes of the reference policy ``policy`` (``scripted`` | ``random``) on a
+    fresh ``task`` environment: the levels a learning curve is read against, in one call."""
     env = make_env(task, strategy, seed=seed, overrides=overrides)
     try:
         pol = reference_policy(policy, task, env.spec, seed)

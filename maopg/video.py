@@ -117,7 +117,8 @@ class Overlay:
     reward: float | None
     """Reward of this frame's tick alone (``None`` on the reset frame, before any tick)."""
     options: Sequence[str]
-    """Current option name of every agent ("-" before the first choice)."""
+    """Option every agent executes ("-" before the first choice, "idle" while a finished agent
+    waits for the others under sync-wait)."""
     started: Sequence[bool]
     """Agents that started their option on this frame's tick (drawn highlighted)."""
     state: Sequence[str]
@@ -236,7 +237,6 @@ def record_episode(
     if not isinstance(task, SceneTask):
         raise ValueError(f"task {task.name!r} has no scene to render (not a SceneTask)")
     names = env.spec.agent_names
-    option_names = [a.option_names for a in env.spec.agents]
     n = len(names)
     composer = FrameComposer(
         task,
@@ -265,7 +265,9 @@ def record_episode(
         writer.append_data(composer.compose(overlay))
         frames[0] += 1
 
-    def on_tick(_env: OptionEnv, reward: float) -> None:
+    def on_tick(tick_env: OptionEnv, reward: float) -> None:
+        # what executes now: a finished agent waiting for the others under sync-wait is "idle"
+        options[:] = tick_env.running_option_names()
         total[0] += reward
         write(task.ticks, reward)
         started[:] = False
@@ -276,8 +278,6 @@ def record_episode(
         write(0, None)
         while not point.done:
             joint = np.asarray(policy(point))
-            for i in np.flatnonzero(point.choosing):
-                options[i] = option_names[i][int(joint[i])]
             started[:] = point.choosing
             point = env.step(joint)
     finally:

@@ -181,6 +181,8 @@ def test_existing_run_needs_resume_and_corrupt_checkpoint_is_named(tmp_path):
     checkpoint.write_bytes(saved[:100])
     with pytest.raises(CheckpointError, match=str(checkpoint)):
         main(["--resume", "--run-dir", str(run_dir), "--total-samples", "200"])
+    # the failed extension left no final policy behind to be mistaken for its result
+    assert not (run_dir / "final.pt").exists() and not (run_dir / "done.json").exists()
     with pytest.raises(ValueError, match="seed"):
         main(["--resume", "--run-dir", str(run_dir), "--seed", "9"])
 
@@ -212,6 +214,8 @@ def test_a_users_registered_task_gets_generic_defaults(tmp_path, monkeypatch):
     monkeypatch.setattr(tasks, "_TASKS", dict(tasks._TASKS))
     tasks.register_task("my_delivery", "maopg.tasks.tool_delivery:ToolDelivery")
     config = TrainConfig(task="my_delivery", total_samples=100, run_dir=str(tmp_path / "r"))
-    assert config.resolved().batch_ticks == 1000
+    assert config.resolved().batch_ticks == 1000 and not config.resolved().video_sample
+    # Water Filling's greedy policy loops on one option: its video samples
+    assert TrainConfig(task="water_filling").resolved().video_sample
     with pytest.raises(ValueError, match="unknown task 'nope'"):
         TrainConfig(task="nope").resolved()

@@ -60,7 +60,7 @@ from train.run_log import (
     write_done,
 )
 
-RESUMABLE_KEYS = ("total_samples", "progress", "video", "num_workers", "run_dir")
+RESUMABLE_KEYS = ("total_samples", "progress", "video", "video_sample", "num_workers", "run_dir")
 """Config fields a resumed run may change: none of them changes what is computed."""
 
 
@@ -330,7 +330,11 @@ def train(config: TrainConfig, *, resume: bool = False, overwrite: bool = False)
     if done is not None:
         if done["samples"] >= config.total_samples:
             return run_dir  # finished: --resume has nothing to do (even with no checkpoint)
-        (run_dir / DONE).unlink()  # a larger budget: unfinished again until it is reached
+        # A larger budget: unfinished again until it is reached. The old weights go with the
+        # marker, so a killed extension cannot pass its old policy off as the final one.
+        (run_dir / DONE).unlink()
+        for stale in (FINAL, VIDEO):
+            (run_dir / stale).unlink(missing_ok=True)
     checkpoint_path = run_dir / CHECKPOINT
     resume = resume and checkpoint_path.exists()
     if config.torch_threads:
@@ -420,7 +424,7 @@ def train(config: TrainConfig, *, resume: bool = False, overwrite: bool = False)
 
 def after_training(run_dir: Path) -> None:
     """Artifacts of a finished run: the learning-curve plot and, with ``video``, a rollout of the
-    trained policy (greedy, seed 0) as ``rollout.mp4``.
+    trained policy (seed 0; greedy unless ``video_sample``) as ``rollout.mp4``.
 
     The policy is loaded back from ``final.pt`` the way ``python -m eval video`` loads it, so
     the video shows what the saved checkpoint does.
@@ -432,6 +436,7 @@ def after_training(run_dir: Path) -> None:
         trained = load_trained(run_dir / FINAL)
         env = trained.make_env(0)
         try:
-            record_episode(env, trained.actor(greedy=True), run_dir / VIDEO, seed=0)
+            actor = trained.actor(greedy=not config.video_sample)
+            record_episode(env, actor, run_dir / VIDEO, seed=0)
         finally:
             env.close()

@@ -87,6 +87,12 @@ class MacDQNConfig:
     value loss (docs/DESIGN.md §5), so ±100 delivery rewards do not dominate the gradient."""
     max_grad_norm: float = 10.0
     """Gradient-norm clip. Chosen here (original: off unless ``--g_clip_norm``), as MAPPO."""
+    reward_scale: float = 1.0
+    """Factor on every reward the Q-network learns from, so Q-values (and ``q_mean`` in the log)
+    are in scaled units; the greedy option is unchanged by a positive factor. ``huber_delta``
+    and ``max_grad_norm`` were chosen for Tool Delivery's ±100 rewards: Water Filling's are
+    ~-10³ per tick, where ``1e-3`` brings them to the same scale (results/README.md, finding 5).
+    MAPPO needs no such factor: its value normalisation rescales the returns."""
     recurrent: bool = False
     """GRU over the option-level history (the original used an LSTM over squeezed episodes).
     Off by default: the joint observation of Tool Delivery is nearly Markov and the feed-forward
@@ -103,6 +109,8 @@ class MacDQNConfig:
                 raise ValueError(f"{key} must be >= 1, got {getattr(self, key)}")
         if not 0.0 <= self.eps_end <= 1.0 or not 0.0 <= self.eps_start <= 1.0:
             raise ValueError("epsilon values must lie in [0, 1]")
+        if not (math.isfinite(self.reward_scale) and self.reward_scale > 0.0):
+            raise ValueError(f"reward_scale must be a positive number, got {self.reward_scale}")
 
 
 # ---------------------------------------------------------------------------- network
@@ -467,7 +475,7 @@ class MacDQN:
 
     def _target(self, batch: dict[str, Tensor], next_online: Tensor, next_target: Tensor) -> Tensor:
         return double_q_target(
-            reward=batch["reward"],
+            reward=batch["reward"] * self.config.reward_scale,
             duration=batch["duration"],
             terminated=batch["terminated"],
             next_q_online=next_online,

@@ -21,9 +21,9 @@ from eval.reproduce import (
     Cell,
     _train_args,
     cell_state,
+    code_digest,
     reproduce,
     run_grid,
-    trainable,
 )
 from eval.runs import (
     discover_runs,
@@ -223,7 +223,6 @@ def test_evaluate_a_checkpoint(trained_run, tmp_path, capsys):
 
 
 def test_evaluate_a_mac_dqn_checkpoint_made_by_the_grid(tmp_path, capsys):
-    assert trainable("mac-dqn") and not trainable("no-such-method")
     cell = Cell("tool_delivery", "mac-dqn", 0)
     grid = dict(tasks=["tool_delivery"], methods=["mac-dqn"], seeds=[0], in_process=True)
     outcomes = run_grid(tmp_path, overrides=[*TINY, "total_samples=120"], **grid)
@@ -308,12 +307,14 @@ def test_grid_skips_finished_runs_and_resumes_unfinished_ones(tmp_path):
     dry = run_grid(runs_root, methods=["async"], dry_run=True, log=lambda _: None, **grid)
     assert list(dry.values()) == ["skipped", "would resume"]
 
-    outcomes, written = reproduce(runs_root, results, methods=["async", "no-such-method"], **grid)
+    with pytest.raises(ValueError, match="unknown method"):  # a typo is not an empty grid
+        run_grid(runs_root, methods=["async", "asnyc"], **grid)
+    with pytest.raises(SystemExit):
+        main(["reproduce", "--runs", str(runs_root), "--methods", "asnyc", "--dry-run"])
+    outcomes, written = reproduce(runs_root, results, methods=["async"], **grid)
     assert outcomes == {
         Cell("tool_delivery", "async", 0): "skipped",
         Cell("tool_delivery", "async", 1): "done",
-        Cell("tool_delivery", "no-such-method", 0): "unsupported",
-        Cell("tool_delivery", "no-such-method", 1): "unsupported",
     }
     assert (seed0 / FINAL).stat().st_mtime_ns == finished_at  # not retrained
     rows = (seed1 / "metrics.csv").read_text().splitlines()
@@ -341,13 +342,19 @@ def test_grid_skips_finished_runs_and_resumes_unfinished_ones(tmp_path):
         assert f"| random | tool_delivery | {strategy} | 1 |" in evaluation
     assert "| async seed0 greedy | tool_delivery | continue | 1 |" in evaluation
     assert "| async seed0 sampled | tool_delivery | continue | 1 |" in evaluation
-    # evaluations are cached per run (and redone for another episode count)
+    # evaluations are cached per run, keyed on the code and the weights they were made with
     cache = seed0 / "evaluation.json"
     cached = json.loads(cache.read_text())
+    assert cached["key"]["code"] == code_digest()
     cached["results"][0]["label"] = "from the cache"
     cache.write_text(json.dumps(cached))
     assert main([*argv, "--eval-episodes", "1"]) == 0
     assert "| from the cache |" in (results / "evaluation.md").read_text()
+    cached["key"]["weights"] = "0" * 64  # as if final.pt had been retrained since
+    cache.write_text(json.dumps(cached))
+    assert main([*argv, "--eval-episodes", "1"]) == 0
+    assert "| from the cache |" not in (results / "evaluation.md").read_text()
+    # ... and redone for another episode count
     assert main([*argv, "--eval-episodes", "2"]) == 0
     assert (
         "| async seed0 greedy | tool_delivery | continue | 2 |"
