@@ -110,6 +110,27 @@ def test_all_idles_finished_agents_until_everyone_finished(seed: int) -> None:
                 assert all(d <= 0.05 for d in dist[arrived[0] :])
 
 
+@pytest.mark.parametrize("strategy", ["continue", "all"])
+def test_running_option_names_show_who_waits(strategy: str) -> None:
+    """What the video captions show each tick: the executing option, or ``idle`` for an agent
+    that finished and waits for the others (only under ``all``)."""
+    env = make_env("tool_delivery", strategy, seed=0)
+    names: list[tuple[str, ...]] = []
+    env.add_tick_listener(lambda e, _reward: names.append(e.running_option_names()))
+    policy = RandomPolicy(env.spec, 0)
+    try:
+        point = env.reset()
+        assert env.running_option_names() == ("-",) * env.num_agents
+        while not point.done:
+            point = env.step(policy(point))
+    finally:
+        env.close()
+    idle = sum(name == "idle" for tick in names for name in tick)
+    known = {name for agent in env.spec.agents for name in agent.option_names}
+    assert all(name in known for tick in names for name in tick if name != "idle")
+    assert idle > 0 if strategy == "all" else idle == 0
+
+
 @pytest.mark.parametrize("strategy", ["continue", "any", "all", "primitive"])
 def test_reward_accounting_matches_the_ticks(strategy: str) -> None:
     for _, point, _, nxt, (rewards, _, ticks) in play(strategy, seed=3, episodes=1):
