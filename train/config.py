@@ -41,28 +41,11 @@ SECTIONS: dict[str, type] = {"dqn": MacDQNConfig}
 
 TASK_DEFAULTS: dict[str, dict[str, Any]] = {
     # The paper's batch sizes in low-level samples (TD 200, WF 2000); budgets cover its curves.
-    # Water Filling's greedy policy loops on one option (results/README.md, finding 6), so its
-    # rollout video samples options as in training.
-    "tool_delivery": {
-        "batch_ticks": 200,
-        "total_samples": 100_000,
-        "images": False,
-        "video_sample": False,
-    },
-    "water_filling": {
-        "batch_ticks": 2000,
-        "total_samples": 200_000,
-        "images": True,
-        "video_sample": True,
-    },
+    "tool_delivery": {"batch_ticks": 200, "total_samples": 100_000, "images": False},
+    "water_filling": {"batch_ticks": 2000, "total_samples": 200_000, "images": True},
 }
 
-GENERIC_DEFAULTS: dict[str, Any] = {
-    "batch_ticks": 1000,
-    "total_samples": 100_000,
-    "images": False,
-    "video_sample": False,
-}
+GENERIC_DEFAULTS: dict[str, Any] = {"batch_ticks": 1000, "total_samples": 100_000, "images": False}
 """For a task registered by a user (``maopg.tasks.register_task``) with no entry above."""
 
 
@@ -119,9 +102,11 @@ class TrainConfig:
     video: bool = True
     """Record a rollout of the trained policy (seed 0) to ``rollout.mp4`` at the end
     (~45 s on Water Filling; ``video=false`` skips it, as the reproduction grid does)."""
-    video_sample: bool | None = None
-    """Sample the video's options from the policy (Mac-DQN: ε-greedy at its final ε) instead of
-    taking the greedy one (per-task default)."""
+    video_sample: bool = True
+    """Sample the video's options from the policy, as in training (Mac-DQN: ε-greedy at its
+    final ε); ``false`` takes the greedy option. The greedy policy can loop where the stochastic
+    one does not: on Water Filling always, on Tool Delivery after a short budget
+    (results/README.md, Water Filling finding 6)."""
     run_dir: str | None = None
     """Default: ``runs/<task>/<method>/seed<seed>``."""
     env_overrides: dict[str, Any] = field(default_factory=dict)
@@ -144,7 +129,7 @@ class TrainConfig:
         DiscountForm(self.discount)
         defaults = TASK_DEFAULTS.get(self.task, GENERIC_DEFAULTS)
         cfg = dataclasses.replace(self, env_overrides=dict(self.env_overrides))
-        for key in ("total_samples", "batch_ticks", "images", "video_sample"):
+        for key in ("total_samples", "batch_ticks", "images"):
             if getattr(cfg, key) is None:
                 setattr(cfg, key, defaults[key])
         if cfg.run_dir is None:

@@ -424,7 +424,7 @@ def train(config: TrainConfig, *, resume: bool = False, overwrite: bool = False)
 
 def after_training(run_dir: Path) -> None:
     """Artifacts of a finished run: the learning-curve plot and, with ``video``, a rollout of the
-    trained policy (seed 0; greedy unless ``video_sample``) as ``rollout.mp4``.
+    trained policy (seed 0; sampled, or greedy with ``video_sample=false``) as ``rollout.mp4``.
 
     The policy is loaded back from ``final.pt`` the way ``python -m eval video`` loads it, so
     the video shows what the saved checkpoint does.
