@@ -16,9 +16,9 @@ from pathlib import Path
 
 import numpy as np
 
-from eval.reproduce import log_to_stderr, run_grid
-from eval.runs import PAPER_METRIC, RETURN, load_run, samples_to_threshold
-from maopg.sysinfo import markdown
+from maopg.experiment.reproduce import log_to_stderr, run_grid
+from maopg.experiment.runs import PAPER_METRIC, RETURN, load_run, samples_to_threshold
+from maopg.experiment.sysinfo import markdown
 
 TASK, METHOD = "tool_delivery", "async"
 

@@ -12,10 +12,10 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from eval.reproduce import log_to_stderr, run_grid
-from eval.runs import discover_runs
-from eval.tables import peak_table, threshold_table
-from maopg.sysinfo import markdown
+from maopg.experiment.reproduce import log_to_stderr, run_grid
+from maopg.experiment.runs import discover_runs
+from maopg.experiment.sysinfo import markdown
+from maopg.experiment.tables import peak_table, threshold_table
 
 TASK, METHODS = "tool_delivery", ("async", "mac-dqn")
 

@@ -22,9 +22,9 @@ import mujoco
 import numpy as np
 
 from maopg.env import make_env
-from maopg.rollout import RandomPolicy
+from maopg.env.rollout import RandomPolicy
 from maopg.sim.render import CameraRenderer
-from maopg.sysinfo import markdown
+from maopg.experiment.sysinfo import markdown
 
 
 def measure_env(images: bool, episodes: int, seed: int = 0) -> tuple[float, int, int, object]:

@@ -21,10 +21,10 @@ from pathlib import Path
 
 import numpy as np
 
-from eval.runs import RunData, load_run
-from maopg.sysinfo import markdown
-from train.config import TrainConfig
-from train.trainer import train
+from maopg.experiment.config import TrainConfig
+from maopg.experiment.runs import RunData, load_run
+from maopg.experiment.sysinfo import markdown
+from maopg.experiment.trainer import train
 
 TARGET_SAMPLES = 200_000
 TARGET_MINUTES = 30.0

@@ -22,10 +22,9 @@ import mujoco
 import numpy as np
 
 from maopg.env import make_env
-from maopg.rollout import RandomPolicy
+from maopg.env.rollout import reference_policy
 from maopg.sim.render import CameraRenderer
-from maopg.sysinfo import markdown
-from maopg.tasks.water_filling import scripted_policy
+from maopg.experiment.sysinfo import markdown
 
 SETTINGS = (
     ("primitive", "random"),
@@ -38,7 +37,7 @@ SETTINGS = (
 def run_task(strategy: str, policy: str, ticks: int, size: int) -> tuple[float, int, int]:
     """(seconds, ticks, frames) of the task driven by ``policy`` for at least ``ticks``."""
     env = make_env("water_filling", strategy, images=True, image_size=size, seed=0)
-    pol = RandomPolicy(env.spec, 0) if policy == "random" else scripted_policy(env.spec)
+    pol = reference_policy(policy, env, 0)
     env.reset(seed=0)
     env.task.render([0, 1], np.zeros((2, size, size, 3), np.uint8))  # GL context outside timing
     done, frames, episode = 0, 0, 0

@@ -7,6 +7,7 @@ from typing import Any
 
 from maopg.env.contract import AgentSpec, DecisionPoint, EnvSpec, Strategy
 from maopg.env.option_env import OptionEnv
+from maopg.tasks import load
 
 
 def make_env(
@@ -23,8 +24,6 @@ def make_env(
 
     ``primitive`` strategy switches the task to its one-tick primitive actions.
     """
-    from maopg.tasks import load
-
     strategy = Strategy(strategy)
     config = {
         "images": images,

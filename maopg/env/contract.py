@@ -36,9 +36,14 @@ from __future__ import annotations
 
 import enum
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+from maopg.options.base import option_index
+
+if TYPE_CHECKING:  # at run time the contract stays free of the task layer's imports
+    from maopg.tasks.layout import ObsLayout
 
 
 class Strategy(enum.StrEnum):
@@ -60,10 +65,23 @@ class AgentSpec:
     """Names of the agent's options (or primitive actions in ``primitive`` mode), index = id."""
     vector_size: int
     """Length of the agent's observation vector."""
+    layout: ObsLayout | None = None
+    """Named fields of the observation vector (``None``: unnamed)."""
+
+    def __post_init__(self) -> None:
+        if self.layout is not None and self.layout.size != self.vector_size:
+            raise ValueError(
+                f"agent {self.name!r}: layout {self.layout.names} has {self.layout.size} values, "
+                f"vector_size is {self.vector_size}"
+            )
 
     @property
     def num_options(self) -> int:
         return len(self.option_names)
+
+    def option_index(self, name: str) -> int:
+        """Id of the option called ``name`` (a ``ValueError`` lists the agent's options)."""
+        return option_index(self.option_names, name, self.name)
 
 
 @dataclass(frozen=True)

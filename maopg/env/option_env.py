@@ -51,6 +51,7 @@ class OptionEnv:
                     robot=task.robot_of(i),
                     option_names=tuple(o.name for o in self._options[i]),
                     vector_size=task.vector_size(i),
+                    layout=task.observation_layout(i),
                 )
                 for i, name in enumerate(task.agent_names)
             ),

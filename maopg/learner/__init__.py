@@ -1,7 +1,8 @@
 """The learners: MAPPO over option-level trajectories (rollout storage, GAE, value
-normalisation, the PPO update) and the Mac-DQN baseline, on one rollout sampler (serial or
-``spawn`` workers), with atomic checkpoints."""
+normalisation, the PPO update) and the Mac-DQN baseline (squeezed replay, conditional
+double-Q), each with its own collection loop behind :class:`Learner`, and atomic checkpoints."""
 
+from maopg.learner.base import SHARED_COLUMNS, Actor, Learner, LearnerSetup
 from maopg.learner.buffer import Rollout, TrainBatch
 from maopg.learner.checkpoint import (
     CheckpointError,
@@ -11,29 +12,30 @@ from maopg.learner.checkpoint import (
     save_checkpoint,
 )
 from maopg.learner.gae import DiscountForm, compute_gae
-from maopg.learner.macdqn import JointQNetwork, MacDQN, MacDQNConfig, SqueezedReplay
-from maopg.learner.mappo import MAPPO, PPOConfig
-from maopg.learner.sampler import EnvConfig, Sampler, StepResult, episode_seed
+from maopg.learner.macdqn import MacDQN, MacDQNConfig, MacDQNLearner
+from maopg.learner.mappo import MAPPO, MAPPOLearner, PPOConfig
+from maopg.learner.replay import SqueezedReplay
 from maopg.learner.value_norm import ValueNorm
 
 __all__ = [
     "MAPPO",
+    "SHARED_COLUMNS",
+    "Actor",
     "CheckpointError",
     "DiscountForm",
-    "EnvConfig",
-    "JointQNetwork",
+    "Learner",
+    "LearnerSetup",
+    "MAPPOLearner",
     "MacDQN",
     "MacDQNConfig",
+    "MacDQNLearner",
     "PPOConfig",
     "Rollout",
-    "Sampler",
     "SqueezedReplay",
-    "StepResult",
     "TrainBatch",
     "ValueNorm",
     "capture_global_rng",
     "compute_gae",
-    "episode_seed",
     "load_checkpoint",
     "restore_global_rng",
     "save_checkpoint",

@@ -15,6 +15,11 @@ choosing agents' entries are available) — :func:`maopg.policy.joint_slice_mask
 the conditional policy normalises over. Acting is the same conditional argmax, with ε-greedy
 exploration drawn only among the choosing agents' available options.
 
+Here: the config section ``dqn`` (:class:`MacDQNConfig`), the conditional double-Q update
+(:class:`MacDQN`) and the learner that acts ε-greedily into the squeezed replay
+(:class:`MacDQNLearner`). The Q-network is :class:`maopg.policy.JointQNetwork`, the argmax and
+ε-greedy are in :mod:`maopg.policy.conditional`, the replay is :mod:`maopg.learner.replay`.
+
 Hyper-parameters (:class:`MacDQNConfig`) name their source: the MacDeepMARL Tool Delivery command
 (``ma_cen_condi_ddrqn.py --env_name=OSD_S_4 ...``) and its code defaults where they carry over,
 "chosen here" where our setting differs (budgets in ticks instead of episodes, Huber loss and
@@ -23,24 +28,33 @@ gradient clipping that the original leaves off by default).
 
 from __future__ import annotations
 
+import copy
 import math
-from collections import deque
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
-import numpy as np
 import torch
 from torch import Tensor, nn
 
-from maopg.env.contract import DecisionPoint, EnvSpec
+from maopg.env.contract import EnvSpec
+from maopg.env.vector import SeededVectorEnv
+from maopg.learner.base import (
+    Actor,
+    Learner,
+    LearnerSetup,
+    episode_metrics,
+    mean,
+)
+from maopg.learner.replay import SqueezedReplay, point_arrays
 from maopg.policy import (
-    JointEncoder,
+    JointQNetwork,
     ObsBatch,
-    init_orthogonal,
-    joint_slice_mask,
+    QActor,
+    conditional_argmax,
+    epsilon_greedy,
     ravel_joint,
-    unravel_joint,
+    stack_conditions,
 )
 
 
@@ -113,77 +127,7 @@ class MacDQNConfig:
             raise ValueError(f"reward_scale must be a positive number, got {self.reward_scale}")
 
 
-# ---------------------------------------------------------------------------- network
-class JointQNetwork(nn.Module):
-    """``Q(z, ·)`` over the flattened joint option: joint encoder (+ GRU) + linear head.
-
-    Feed-forward: :meth:`forward` maps ``B`` observations to ``[B, ΠK_i]``. Recurrent: the GRU
-    runs over one episode's decision points in order; :meth:`step` advances it by one point
-    while acting, :meth:`sequence` runs whole padded episodes for training.
-    """
-
-    def __init__(
-        self,
-        spec: EnvSpec,
-        hidden: int = 128,
-        layers: int = 2,
-        recurrent: bool = False,
-        use_images: bool | None = None,
-    ) -> None:
-        super().__init__()
-        self.option_counts = spec.option_counts
-        self.encoder = JointEncoder(spec, hidden=hidden, layers=layers, use_images=use_images)
-        self.gru = nn.GRU(hidden, hidden, batch_first=True) if recurrent else None
-        self.head = nn.Linear(hidden, math.prod(self.option_counts))
-        init_orthogonal(self.head, 1.0)
-
-    @property
-    def recurrent(self) -> bool:
-        return self.gru is not None
-
-    def initial_state(self, batch: int) -> Tensor | None:
-        """Zero GRU state for ``batch`` fresh episodes (``None`` when feed-forward)."""
-        if self.gru is None:
-            return None
-        return torch.zeros(1, batch, self.gru.hidden_size)
-
-    def forward(self, obs: ObsBatch) -> Tensor:
-        if self.gru is not None:
-            raise RuntimeError("the recurrent Q-network needs step() or sequence()")
-        return self.head(self.encoder(obs))
-
-    def step(self, obs: ObsBatch, state: Tensor | None) -> tuple[Tensor, Tensor | None]:
-        """Q of one decision point per row, and the advanced GRU state."""
-        if self.gru is None:
-            return self.forward(obs), None
-        out, state = self.gru(self.encoder(obs).unsqueeze(1), state)
-        return self.head(out.squeeze(1)), state
-
-    def sequence(self, obs: ObsBatch, batch: int, length: int) -> Tensor:
-        """``[B, T, ΠK]`` for ``obs`` holding ``B`` episodes of ``T`` points, row-major, from zero
-        state. Padding after an episode's end does not affect its earlier outputs (causal)."""
-        features = self.encoder(obs).view(batch, length, -1)
-        if self.gru is not None:
-            features, _ = self.gru(features)
-        return self.head(features)
-
-
-# ---------------------------------------------------------------------------- target and acting
-def conditional_argmax(
-    q: Tensor,
-    choosing: Tensor,
-    running: Tensor,
-    available: Tensor,
-    option_counts: Sequence[int],
-) -> Tensor:
-    """Flat index ``[B]`` of the best joint option in each row's conditional slice.
-
-    Continuing agents keep ``running``; choosing agents range over their available options.
-    """
-    mask = joint_slice_mask(choosing, running, available, option_counts).reshape(q.shape)
-    return q.masked_fill(~mask, -math.inf).argmax(dim=-1)
-
-
+# ---------------------------------------------------------------------------- the target
 def double_q_target(
     *,
     reward: Tensor,
@@ -215,190 +159,7 @@ def double_q_target(
     return reward + discount * bootstrap * (~terminated).to(reward.dtype)
 
 
-def epsilon_greedy(
-    q: Tensor,
-    choosing: Tensor,
-    running: Tensor,
-    available: Tensor,
-    option_counts: Sequence[int],
-    epsilon: float,
-    generator: torch.Generator,
-) -> Tensor:
-    """Joint options ``int64 [B, N]``: the conditional argmax, then each *choosing* agent
-    independently (as MacDeepMARL) switches with probability ε to a uniform available option.
-    Continuing agents always keep their running option."""
-    joint = unravel_joint(
-        conditional_argmax(q, choosing, running, available, option_counts), option_counts
-    )
-    choosing = choosing.bool()
-    masks = torch.split(available.bool(), list(option_counts), dim=-1)
-    explore = torch.rand(choosing.shape, generator=generator) < epsilon
-    for i, mask in enumerate(masks):
-        # Rows whose agent i is not choosing may have an all-false mask: give multinomial
-        # something valid there; the pick is discarded by the where below.
-        weights = torch.where(choosing[:, i : i + 1], mask, True).float()
-        random = torch.multinomial(weights, 1, generator=generator).squeeze(-1)
-        joint[:, i] = torch.where(explore[:, i] & choosing[:, i], random, joint[:, i])
-    return torch.where(choosing, joint, running)
-
-
-# ---------------------------------------------------------------------------- replay
-def _obs_fields(spec: EnvSpec) -> dict[str, tuple[tuple[int, ...], Any]]:
-    """Shape and dtype of one point's stored arrays (observation + conditional)."""
-    n = spec.num_agents
-    fields: dict[str, tuple[tuple[int, ...], Any]] = {
-        "vectors": ((sum(a.vector_size for a in spec.agents),), np.float32),
-        "choosing": ((n,), np.bool_),
-        "running": ((n,), np.int64),
-        "available": ((sum(spec.option_counts),), np.bool_),
-    }
-    if spec.image_shape is not None:
-        fields["images"] = ((n, *spec.image_shape), np.uint8)
-    return fields
-
-
-def point_arrays(point: DecisionPoint) -> dict[str, np.ndarray]:
-    """Copies of what the replay stores of a decision point (the env reuses its buffers)."""
-    arrays = {
-        "vectors": np.concatenate(point.vectors).astype(np.float32),
-        "choosing": np.asarray(point.choosing, dtype=np.bool_).copy(),
-        "running": np.asarray(point.running, dtype=np.int64).copy(),
-        "available": np.concatenate(point.available).astype(np.bool_),
-    }
-    if point.images is not None:
-        arrays["images"] = np.array(point.images, dtype=np.uint8)
-    return arrays
-
-
-class SqueezedReplay:
-    """Replay of decision-point transitions ("squeezed" experience, one row per option step).
-
-    A row holds the point acted on (observation, ``U_t``, running options, availability), the
-    joint option, the discounted reward over the ``k`` ticks, ``k``, the next point (its
-    observation, ``U``, running options, availability) and ``terminated``.
-
-    Each environment's transitions are held back until its episode ends and then written as one
-    contiguous block of the ring, so whole episodes can be sampled for the recurrent Q-network;
-    the feed-forward learner samples single rows uniformly. When the ring wraps, the oldest rows
-    are overwritten and episodes that lost rows are no longer offered as sequences.
-    """
-
-    def __init__(self, spec: EnvSpec, capacity: int, num_envs: int) -> None:
-        if capacity < spec.max_ticks:
-            raise ValueError(f"capacity {capacity} cannot hold one episode ({spec.max_ticks})")
-        self.capacity = capacity
-        self.option_counts = spec.option_counts
-        layout = _obs_fields(spec)
-        n = spec.num_agents
-        self.layout: dict[str, tuple[tuple[int, ...], Any]] = {
-            **layout,
-            "joint": ((n,), np.int64),
-            "reward": ((), np.float32),
-            "duration": ((), np.int64),
-            "terminated": ((), np.bool_),
-            **{f"next_{k}": v for k, v in layout.items()},
-        }
-        self.data = {
-            k: np.zeros((capacity, *shape), dtype) for k, (shape, dtype) in self.layout.items()
-        }
-        self.total = 0
-        """Rows ever written; row ``a`` lives in slot ``a % capacity``."""
-        self.episodes: deque[tuple[int, int]] = deque()
-        """``(first row, length)`` of the intact episodes in the ring, oldest first."""
-        self.pending: list[list[dict[str, np.ndarray]]] = [[] for _ in range(num_envs)]
-
-    def __len__(self) -> int:
-        return min(self.total, self.capacity)
-
-    def add(
-        self,
-        env: int,
-        point: dict[str, np.ndarray],
-        joint: np.ndarray,
-        outcome: DecisionPoint,
-    ) -> None:
-        """Store env ``env``'s transition from ``point`` (see :func:`point_arrays`) taking
-        ``joint``, whose result is ``outcome`` (the next point, or the episode's final one)."""
-        if outcome.duration < 1:
-            raise ValueError("a transition spans at least one tick")
-        row = dict(point)
-        row.update({f"next_{k}": v for k, v in point_arrays(outcome).items()})
-        row["joint"] = np.asarray(joint, dtype=np.int64).copy()
-        row["reward"] = np.float32(outcome.discounted_reward)
-        row["duration"] = np.int64(outcome.duration)
-        row["terminated"] = np.bool_(outcome.terminated)
-        self.pending[env].append(row)
-        if outcome.done:
-            self._commit(self.pending[env])
-            self.pending[env] = []
-
-    def _commit(self, rows: list[dict[str, np.ndarray]]) -> None:
-        if len(rows) > self.capacity:
-            raise ValueError(f"an episode of {len(rows)} points exceeds the capacity")
-        slots = (self.total + np.arange(len(rows))) % self.capacity
-        for key, store in self.data.items():
-            store[slots] = np.stack([r[key] for r in rows])
-        self.episodes.append((self.total, len(rows)))
-        self.total += len(rows)
-        while self.episodes and self.episodes[0][0] < self.total - self.capacity:
-            self.episodes.popleft()
-
-    def _gather(self, rows: np.ndarray) -> dict[str, Tensor]:
-        slots = rows % self.capacity
-        return {k: torch.from_numpy(v[slots]) for k, v in self.data.items()}
-
-    def sample(self, batch: int, generator: torch.Generator) -> dict[str, Tensor]:
-        """``batch`` transitions drawn uniformly (with replacement) from the stored rows."""
-        if len(self) == 0:
-            raise ValueError("the replay is empty")
-        offsets = torch.randint(len(self), (batch,), generator=generator).numpy()
-        return self._gather(self.total - len(self) + offsets)
-
-    def sample_episodes(self, batch: int, generator: torch.Generator) -> dict[str, Tensor]:
-        """``batch`` whole episodes, padded to the longest: every entry ``[B, T, ...]``, plus
-        ``mask`` ``bool [B, T]`` marking real transitions."""
-        if not self.episodes:
-            raise ValueError("no complete episode in the replay")
-        picks = torch.randint(len(self.episodes), (batch,), generator=generator).tolist()
-        spans = [self.episodes[p] for p in picks]
-        length = max(n for _, n in spans)
-        rows = np.array([[s + min(t, n - 1) for t in range(length)] for s, n in spans])
-        out = self._gather(rows)
-        lengths = torch.tensor([n for _, n in spans])
-        out["mask"] = torch.arange(length).unsqueeze(0) < lengths.unsqueeze(1)
-        return out
-
-    # ------------------------------------------------------------------ checkpointing
-    def state_dict(self) -> dict[str, Any]:
-        return {
-            "total": self.total,
-            "data": {k: torch.from_numpy(v[: len(self)].copy()) for k, v in self.data.items()},
-            "episodes": [list(e) for e in self.episodes],
-            "pending": [
-                {k: torch.from_numpy(np.stack([r[k] for r in rows])) for k in self.layout}
-                if rows
-                else {}
-                for rows in self.pending
-            ],
-        }
-
-    def load_state_dict(self, state: dict[str, Any]) -> None:
-        if len(state["pending"]) != len(self.pending):
-            raise ValueError("the saved replay was made for another number of environments")
-        self.total = int(state["total"])
-        for key, store in self.data.items():
-            saved = state["data"][key].numpy()
-            store[: len(saved)] = saved
-        self.episodes = deque((int(s), int(n)) for s, n in state["episodes"])
-        self.pending = [
-            [{k: v[t].numpy() for k, v in rows.items()} for t in range(len(rows["joint"]))]
-            if rows
-            else []
-            for rows in state["pending"]
-        ]
-
-
-# ---------------------------------------------------------------------------- learner
+# ---------------------------------------------------------------------------- the update
 def _obs(batch: dict[str, Tensor], prefix: str = "") -> ObsBatch:
     return ObsBatch(batch[f"{prefix}vectors"], batch.get(f"{prefix}images"))
 
@@ -406,47 +167,18 @@ def _obs(batch: dict[str, Tensor], prefix: str = "") -> ObsBatch:
 class MacDQN:
     """Online and target Q-networks, Adam, and the conditional double-Q update."""
 
-    def __init__(
-        self,
-        spec: EnvSpec,
-        config: MacDQNConfig,
-        *,
-        gamma: float = 0.99,
-        hidden: int = 128,
-        layers: int = 2,
-        use_images: bool | None = None,
-    ) -> None:
+    def __init__(self, q: JointQNetwork, config: MacDQNConfig, *, gamma: float = 0.99) -> None:
         config.validate()
         self.config = config
         self.gamma = gamma
-        self.option_counts = spec.option_counts
-        kw = {"hidden": hidden, "layers": layers, "use_images": use_images}
-        self.q = JointQNetwork(spec, recurrent=config.recurrent, **kw)
-        self.target = JointQNetwork(spec, recurrent=config.recurrent, **kw)
-        self.target.load_state_dict(self.q.state_dict())
+        self.option_counts = q.option_counts
+        self.q = q
+        self.target = copy.deepcopy(q)
         self.target.requires_grad_(False)
         self.optimizer = torch.optim.Adam(self.q.parameters(), lr=config.lr)
 
     def sync_target(self) -> None:
         self.target.load_state_dict(self.q.state_dict())
-
-    @torch.no_grad()
-    def act(
-        self,
-        obs: ObsBatch,
-        choosing: Tensor,
-        running: Tensor,
-        available: Tensor,
-        state: Tensor | None,
-        epsilon: float,
-        generator: torch.Generator,
-    ) -> tuple[Tensor, Tensor | None]:
-        """ε-greedy joint options for one decision point per row, and the next GRU state."""
-        q, state = self.q.step(obs, state)
-        joint = epsilon_greedy(
-            q, choosing, running, available, self.option_counts, epsilon, generator
-        )
-        return joint, state
 
     def update(self, replay: SqueezedReplay, generator: torch.Generator) -> dict[str, float]:
         """One gradient step on a sampled batch; returns the TD loss and the mean chosen Q."""
@@ -526,3 +258,119 @@ class MacDQN:
         self.q.load_state_dict(state["q"])
         self.target.load_state_dict(state["target"])
         self.optimizer.load_state_dict(state["optimizer"])
+
+
+# ---------------------------------------------------------------------------- the learner
+class MacDQNLearner(Learner):
+    """Mac-DQN's collection loop: step the environments with the ε-greedy conditional argmax,
+    storing every decision point in the squeezed replay; a gradient step falls due every
+    ``dqn.train_every`` ticks from ``dqn.learning_starts`` on and the target network syncs every
+    ``dqn.target_update_every`` ticks, so the x-axis (samples = ticks) means the same as for
+    MAPPO."""
+
+    Config = MacDQNConfig
+    section = "dqn"
+    columns: ClassVar[tuple[str, ...]] = ("loss", "q_mean", "epsilon", "updates")
+    """``loss``/``q_mean`` average the iteration's gradient steps (NaN if none), ``epsilon`` is
+    the exploration rate at the iteration's end, ``updates`` the number of gradient steps so
+    far."""
+    policy_key = "q"
+
+    def __init__(self, policy: JointQNetwork, setup: LearnerSetup) -> None:
+        super().__init__(policy, setup)
+        self.dqn = MacDQN(policy, self.config, gamma=setup.gamma)
+        self.replay = SqueezedReplay(setup.spec, self.config.buffer_size, setup.num_envs)
+        self.gru_state = policy.initial_state(setup.num_envs)
+        self.counters = {"slots": 0, "updates": 0, "syncs": 0}
+        """Update slots passed, gradient steps taken, target syncs done."""
+
+    def iteration(self, envs: SeededVectorEnv, samples: int) -> tuple[dict[str, Any], int]:
+        dqn = self.config
+        ticks, option_steps, rewards = 0, 0, []
+        episodes: list[dict[str, Any]] = []
+        stats: list[dict[str, float]] = []
+        while ticks < self.setup.batch_ticks:
+            points = envs.points
+            with torch.no_grad():
+                q, self.gru_state = self.policy.step(
+                    ObsBatch.from_decision_points(points), self.gru_state
+                )
+                joint = epsilon_greedy(
+                    q,
+                    *stack_conditions(points),
+                    self.policy.option_counts,
+                    dqn.epsilon(samples + ticks),
+                    self.setup.sample_gen,
+                )
+            joints = joint.numpy()
+            results = envs.step(joints)
+            for e, result in enumerate(results):
+                outcome = result.outcome
+                self.replay.add(e, point_arrays(points[e]), joints[e], outcome)
+                rewards.append(outcome.reward)
+                if result.final is not None:
+                    episodes.append(dict(outcome.info["episode"]))
+                    if self.gru_state is not None:
+                        self.gru_state[:, e] = 0.0
+            option_steps += len(results)
+            ticks += sum(r.outcome.duration for r in results)
+            stats += self._due_updates(samples + ticks)
+        row = {
+            "option_steps": option_steps,
+            **episode_metrics(episodes),
+            "option_step_reward": mean(rewards),
+            "loss": mean([s["loss"] for s in stats]),
+            "q_mean": mean([s["q_mean"] for s in stats]),
+            "epsilon": dqn.epsilon(samples + ticks),
+            "updates": self.counters["updates"],
+        }
+        return row, ticks
+
+    def _due_updates(self, samples: int) -> list[dict[str, float]]:
+        """Run the gradient steps and target syncs that the tick count has made due.
+
+        Steps due while the replay cannot yet serve a batch (no finished episode) are skipped,
+        not deferred.
+        """
+        dqn, counters = self.config, self.counters
+        stats = []
+        if samples >= dqn.learning_starts:
+            due = (samples - dqn.learning_starts) // dqn.train_every + 1
+            ready = bool(self.replay.episodes) if dqn.recurrent else len(self.replay) > 0
+            while counters["slots"] < due:
+                if ready:
+                    stats.append(self.dqn.update(self.replay, self.setup.update_gen))
+                    counters["updates"] += 1
+                counters["slots"] += 1
+        syncs = samples // dqn.target_update_every
+        if syncs > counters["syncs"]:
+            self.dqn.sync_target()
+            counters["syncs"] = syncs
+        return stats
+
+    def state_dict(self) -> dict[str, Any]:
+        return {
+            **self.dqn.state_dict(),
+            "replay": self.replay.state_dict(),
+            "counters": dict(self.counters),
+            "gru_state": torch.empty(0) if self.gru_state is None else self.gru_state,
+        }
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        self.dqn.load_state_dict(state)
+        self.replay.load_state_dict(state["replay"])
+        self.counters.update(state["counters"])
+        if self.gru_state is not None:
+            self.gru_state = state["gru_state"]
+
+    @staticmethod
+    def actor(policy: JointQNetwork, config: MacDQNConfig, *, greedy: bool, seed: int) -> Actor:
+        """The conditional argmax; sampled, ε-greedy at the final exploration rate."""
+        return QActor(policy, epsilon=0.0 if greedy else config.eps_end, seed=seed)
+
+
+def joint_q_network(
+    spec: EnvSpec, *, hidden: int, layers: int, config: MacDQNConfig
+) -> JointQNetwork:
+    """Mac-DQN's acting network (the method registry's policy builder)."""
+    return JointQNetwork(spec, hidden=hidden, layers=layers, recurrent=config.recurrent)

@@ -1,4 +1,7 @@
-"""The MAPPO update on option-level batches (docs/DESIGN.md §5; Yu et al. 2021's defaults).
+"""MAPPO over option-level trajectories (docs/DESIGN.md §5; Yu et al. 2021's defaults): every
+method but Mac-DQN. One iteration, top to bottom in :meth:`MAPPOLearner.iteration`: collect a
+rollout with the conditional policy (:meth:`MAPPOLearner.collect`), compute GAE over its option
+steps, run the PPO update (:class:`MAPPO`) and return the metrics row the trainer logs.
 
 Actor and critic are separate networks with separate Adam optimisers and separate gradient-norm
 clipping, as in MAPPO. The actor's objective is PPO's clipped surrogate on the ratio of
@@ -10,19 +13,36 @@ Huber loss, clipped around the old prediction like the policy ratio.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from typing import Any, ClassVar
 
+import numpy as np
 import torch
 from torch import Tensor, nn
 
-from maopg.learner.buffer import TrainBatch
+from maopg.env.contract import EnvSpec
+from maopg.env.vector import SeededVectorEnv
+from maopg.learner.base import Actor, Learner, LearnerSetup, episode_metrics
+from maopg.learner.buffer import Rollout, TrainBatch
+from maopg.learner.gae import DiscountForm
 from maopg.learner.value_norm import ValueNorm
-from maopg.policy import CentralCritic, OptionPolicy
+from maopg.policy import (
+    CentralCritic,
+    CentralizedPolicy,
+    DistributionActor,
+    ObsBatch,
+    OptionPolicy,
+    PartiallyCentralizedPolicy,
+    stack_conditions,
+)
 
 
 @dataclass(frozen=True)
 class PPOConfig:
-    """Hyper-parameters of one PPO update (defaults: MAPPO reference, docs/DESIGN.md §5)."""
+    """MAPPO's hyper-parameters: the config section ``ppo`` (defaults: the MAPPO reference,
+    docs/DESIGN.md §5). The discount γ is the run's ``gamma`` (it also discounts the
+    environment's rewards), the network size its ``hidden`` and ``layers``."""
 
     epochs: int = 10
     num_minibatches: int = 1
@@ -36,6 +56,21 @@ class PPOConfig:
     adam_eps: float = 1e-5
     max_grad_norm: float = 10.0
     normalize_advantages: bool = True
+    gae_lambda: float = 0.95
+    discount: str = DiscountForm.SMDP.value
+    """``smdp`` (γ^k per option step, default) or ``option`` (the paper's γ per option step)."""
+    value_norm: bool = True
+    """Running mean/var normalisation of the critic's targets."""
+
+    def validate(self) -> None:
+        for key in ("epochs", "num_minibatches"):
+            if getattr(self, key) < 1:
+                raise ValueError(f"ppo.{key} must be >= 1, got {getattr(self, key)}")
+        if not 0.0 <= self.gae_lambda <= 1.0:
+            raise ValueError(f"ppo.gae_lambda must lie in [0, 1], got {self.gae_lambda}")
+        forms = [f.value for f in DiscountForm]
+        if self.discount not in forms:
+            raise ValueError(f"ppo.discount must be one of {forms}, got {self.discount!r}")
 
 
 @dataclass
@@ -152,3 +187,134 @@ class MAPPO:
     def load_state_dict(self, state: dict[str, dict]) -> None:
         self.policy_opt.load_state_dict(state["policy_opt"])
         self.critic_opt.load_state_dict(state["critic_opt"])
+
+
+def centralized_policy(
+    spec: EnvSpec, *, hidden: int, layers: int, config: PPOConfig
+) -> CentralizedPolicy:
+    """The paper's conditional centralized policy (the method registry's policy builder)."""
+    return CentralizedPolicy(spec, hidden=hidden, layers=layers)
+
+
+def partial_policy(
+    spec: EnvSpec, *, hidden: int, layers: int, config: PPOConfig
+) -> PartiallyCentralizedPolicy:
+    """One policy per agent from its local observation (paper §III-D)."""
+    return PartiallyCentralizedPolicy(spec, hidden=hidden, layers=layers)
+
+
+class MAPPOLearner(Learner):
+    """Collect option steps with the conditional policy, GAE, the PPO update (module docstring).
+
+    The critic ``V(z)`` on the joint observation has its own encoder, built after the policy
+    from torch's global RNG (seeded by the trainer).
+    """
+
+    Config = PPOConfig
+    section = "ppo"
+    columns: ClassVar[tuple[str, ...]] = (
+        "policy_loss",
+        "value_loss",
+        "entropy",
+        "approx_kl",
+        "clip_fraction",
+        "explained_variance",
+    )
+    policy_key = "policy"
+
+    def __init__(self, policy: OptionPolicy, setup: LearnerSetup) -> None:
+        super().__init__(policy, setup)
+        self.critic = CentralCritic(setup.spec, hidden=setup.hidden, layers=setup.layers)
+        self.value_norm = ValueNorm() if self.config.value_norm else None
+        self.ppo = MAPPO(policy, self.critic, self.value_norm, self.config)
+
+    def iteration(self, envs: SeededVectorEnv, samples: int) -> tuple[dict[str, Any], int]:
+        cfg = self.config
+        rollout = self.collect(envs)
+        advantages, returns, values = rollout.advantages(
+            self.value_norm, gamma=self.setup.gamma, lam=cfg.gae_lambda, form=cfg.discount
+        )
+        batch = rollout.training_batch(advantages, returns)
+        stats = self.ppo.update(batch, self.setup.update_gen)
+        variance = float(np.var(returns))
+        explained = (
+            float(1.0 - np.var(returns - values) / variance) if variance > 1e-12 else math.nan
+        )
+        row = {
+            "option_steps": rollout.num_steps * rollout.num_envs,
+            **episode_metrics(rollout.episodes),
+            "option_step_reward": float(np.mean(rollout.grid("reward_sum"))),
+            **stats,
+            "explained_variance": explained,
+        }
+        return row, rollout.ticks
+
+    @torch.no_grad()
+    def collect(self, envs: SeededVectorEnv) -> Rollout:
+        """Step all environments in lockstep until ``batch_ticks`` ticks have been collected.
+
+        The last row may overshoot ``batch_ticks`` by less than one option step per
+        environment; :attr:`Rollout.ticks` is the exact count. Values are stored in the
+        critic's own (normalised) space; a truncated episode bootstraps from its final point.
+        """
+        policy, critic = self.policy, self.critic
+        rollout = Rollout(num_envs=envs.num_envs)
+        obs = ObsBatch.from_decision_points(envs.points)
+        values = critic(obs)
+        ticks = 0
+        while ticks < self.setup.batch_ticks:
+            choosing, running, available = stack_conditions(envs.points)
+            dist = policy.distribution(obs, choosing, running, available)
+            joint = dist.sample(self.setup.sample_gen)
+            log_prob = dist.log_prob(joint)
+            results = envs.step(joint.numpy())
+            outcomes = [r.outcome for r in results]
+            next_obs = ObsBatch.from_decision_points(envs.points)
+            next_values = critic(next_obs)
+            bootstrap = next_values.clone()
+            truncated = [e for e, o in enumerate(outcomes) if o.truncated]
+            if truncated:
+                finals = ObsBatch.from_decision_points([outcomes[e] for e in truncated])
+                bootstrap[truncated] = critic(finals)
+            rollout.add(
+                obs=obs,
+                choosing=choosing,
+                running=running,
+                available=available,
+                joint=joint,
+                log_prob=log_prob,
+                value=values,
+                reward_sum=np.array([o.reward for o in outcomes]),
+                reward_discounted=np.array([o.discounted_reward for o in outcomes]),
+                duration=np.array([o.duration for o in outcomes]),
+                terminated=np.array([o.terminated for o in outcomes]),
+                truncated=np.array([o.truncated for o in outcomes]),
+                next_value=bootstrap,
+            )
+            rollout.episodes += [
+                dict(r.final.info["episode"]) for r in results if r.final is not None
+            ]
+            ticks += int(sum(o.duration for o in outcomes))
+            obs, values = next_obs, next_values
+        return rollout
+
+    def final_state(self) -> dict[str, Any]:
+        return {
+            "policy": self.policy.state_dict(),
+            "critic": self.critic.state_dict(),
+            "value_norm": {} if self.value_norm is None else self.value_norm.state_dict(),
+        }
+
+    def state_dict(self) -> dict[str, Any]:
+        return {**self.final_state(), "optimizers": self.ppo.state_dict()}
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        self.policy.load_state_dict(state["policy"])
+        self.critic.load_state_dict(state["critic"])
+        if self.value_norm is not None:
+            self.value_norm.load_state_dict(state["value_norm"])
+        self.ppo.load_state_dict(state["optimizers"])
+
+    @staticmethod
+    def actor(policy: OptionPolicy, config: PPOConfig, *, greedy: bool, seed: int) -> Actor:
+        return DistributionActor(policy, greedy=greedy, seed=seed)

@@ -1,11 +1,14 @@
-"""Option policies, encoders and the centralized critic for the option-level learners."""
+"""Option policies, the centralized critic, Mac-DQN's joint Q-network, and their actors."""
 
+from maopg.policy.actors import DistributionActor, QActor
 from maopg.policy.batch import ObsBatch, stack_conditions, vector_slices
 from maopg.policy.conditional import (
     ConditionalJoint,
     FactoredConditional,
     JointOptionDistribution,
+    conditional_argmax,
     conditional_log_probs,
+    epsilon_greedy,
     joint_slice_mask,
     partial_conditional_log_probs,
     ravel_joint,
@@ -15,25 +18,29 @@ from maopg.policy.encoders import JointEncoder, LocalEncoder, NatureCNN, init_or
 from maopg.policy.networks import (
     CentralCritic,
     CentralizedPolicy,
+    JointQNetwork,
     OptionPolicy,
     PartiallyCentralizedPolicy,
-    build_policy,
 )
 
 __all__ = [
     "CentralCritic",
     "CentralizedPolicy",
     "ConditionalJoint",
+    "DistributionActor",
     "FactoredConditional",
     "JointEncoder",
     "JointOptionDistribution",
+    "JointQNetwork",
     "LocalEncoder",
     "NatureCNN",
     "ObsBatch",
     "OptionPolicy",
     "PartiallyCentralizedPolicy",
-    "build_policy",
+    "QActor",
+    "conditional_argmax",
     "conditional_log_probs",
+    "epsilon_greedy",
     "init_orthogonal",
     "joint_slice_mask",
     "partial_conditional_log_probs",

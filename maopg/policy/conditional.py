@@ -246,3 +246,46 @@ class FactoredConditional:
     def mode(self) -> Tensor:
         picks = torch.stack([lp.argmax(dim=-1) for lp in self.agent_log_probs], dim=-1)
         return torch.where(self.choosing, picks, self.running)
+
+
+# ---------------------------------------------------------------------------- joint Q-values
+def conditional_argmax(
+    q: Tensor,
+    choosing: Tensor,
+    running: Tensor,
+    available: Tensor,
+    option_counts: Sequence[int],
+) -> Tensor:
+    """Flat index ``[B]`` of the best joint option in each row's conditional slice.
+
+    Continuing agents keep ``running``; choosing agents range over their available options.
+    """
+    mask = joint_slice_mask(choosing, running, available, option_counts).reshape(q.shape)
+    return q.masked_fill(~mask, -math.inf).argmax(dim=-1)
+
+
+def epsilon_greedy(
+    q: Tensor,
+    choosing: Tensor,
+    running: Tensor,
+    available: Tensor,
+    option_counts: Sequence[int],
+    epsilon: float,
+    generator: torch.Generator,
+) -> Tensor:
+    """Joint options ``int64 [B, N]``: the conditional argmax, then each *choosing* agent
+    independently (as MacDeepMARL) switches with probability ε to a uniform available option.
+    Continuing agents always keep their running option."""
+    joint = unravel_joint(
+        conditional_argmax(q, choosing, running, available, option_counts), option_counts
+    )
+    choosing = choosing.bool()
+    masks = torch.split(available.bool(), list(option_counts), dim=-1)
+    explore = torch.rand(choosing.shape, generator=generator) < epsilon
+    for i, mask in enumerate(masks):
+        # Rows whose agent i is not choosing may have an all-false mask: give multinomial
+        # something valid there; the pick is discarded by the where below.
+        weights = torch.where(choosing[:, i : i + 1], mask, True).float()
+        random = torch.multinomial(weights, 1, generator=generator).squeeze(-1)
+        joint[:, i] = torch.where(explore[:, i] & choosing[:, i], random, joint[:, i])
+    return torch.where(choosing, joint, running)

@@ -1,18 +1,21 @@
-"""Option policies and the centralized critic (docs/DESIGN.md §4-§5).
+"""Option policies, the centralized critic and the joint Q-network (docs/DESIGN.md §4-§6).
 
 :class:`OptionPolicy` is the seam a learner depends on: given a batch of joint observations and
 the condition of each decision point (who chooses, what the others run, what is available) it
 returns a distribution over joint options. The product categorical behind
 :class:`CentralizedPolicy` is exact but grows as ``ΠK_i``; a factored or autoregressive
 conditional policy for many agents would implement the same interface.
+
+:class:`JointQNetwork` is Mac-DQN's acting network: a value for every joint option, acted on by
+the conditional argmax of :mod:`maopg.policy.conditional`.
 """
 
 from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
-from typing import Literal
 
+import torch
 from torch import Tensor, nn
 
 from maopg.env.contract import EnvSpec
@@ -104,6 +107,60 @@ class PartiallyCentralizedPolicy(OptionPolicy):
         return FactoredConditional(log_probs, choosing, running)
 
 
+class JointQNetwork(nn.Module):
+    """``Q(z, ·)`` over the flattened joint option: joint encoder (+ GRU) + linear head.
+
+    Feed-forward: :meth:`forward` maps ``B`` observations to ``[B, ΠK_i]``. Recurrent: the GRU
+    runs over one episode's decision points in order; :meth:`step` advances it by one point
+    while acting, :meth:`sequence` runs whole padded episodes for training.
+    """
+
+    def __init__(
+        self,
+        spec: EnvSpec,
+        hidden: int = 128,
+        layers: int = 2,
+        recurrent: bool = False,
+        use_images: bool | None = None,
+    ) -> None:
+        super().__init__()
+        self.option_counts = spec.option_counts
+        self.encoder = JointEncoder(spec, hidden=hidden, layers=layers, use_images=use_images)
+        self.gru = nn.GRU(hidden, hidden, batch_first=True) if recurrent else None
+        self.head = nn.Linear(hidden, math.prod(self.option_counts))
+        init_orthogonal(self.head, 1.0)
+
+    @property
+    def recurrent(self) -> bool:
+        return self.gru is not None
+
+    def initial_state(self, batch: int) -> Tensor | None:
+        """Zero GRU state for ``batch`` fresh episodes (``None`` when feed-forward)."""
+        if self.gru is None:
+            return None
+        return torch.zeros(1, batch, self.gru.hidden_size)
+
+    def forward(self, obs: ObsBatch) -> Tensor:
+        if self.gru is not None:
+            raise RuntimeError("the recurrent Q-network needs step() or sequence()")
+        return self.head(self.encoder(obs))
+
+    def step(self, obs: ObsBatch, state: Tensor | None) -> tuple[Tensor, Tensor | None]:
+        """Q of one decision point per row, and the advanced GRU state."""
+        if self.gru is None:
+            return self.forward(obs), None
+        out, state = self.gru(self.encoder(obs).unsqueeze(1), state)
+        return self.head(out.squeeze(1)), state
+
+    def sequence(self, obs: ObsBatch, batch: int, length: int) -> Tensor:
+        """``[B, T, ΠK]`` for ``obs`` holding ``B`` episodes of ``T`` points, row-major, from zero
+        state. Padding after an episode's end does not affect its earlier outputs (causal)."""
+        features = self.encoder(obs).view(batch, length, -1)
+        if self.gru is not None:
+            features, _ = self.gru(features)
+        return self.head(features)
+
+
 class CentralCritic(nn.Module):
     """``V(z)`` on the joint observation (its own encoder: MAPPO keeps actor and critic apart)."""
 
@@ -118,14 +175,3 @@ class CentralCritic(nn.Module):
 
     def forward(self, obs: ObsBatch) -> Tensor:
         return self.value(obs)
-
-
-def build_policy(
-    kind: Literal["centralized", "partial"], spec: EnvSpec, **encoder_kw
-) -> OptionPolicy:
-    """The policy for ``kind``; ``encoder_kw`` go to the encoders (hidden, layers, ...)."""
-    if kind == "centralized":
-        return CentralizedPolicy(spec, **encoder_kw)
-    if kind == "partial":
-        return PartiallyCentralizedPolicy(spec, **encoder_kw)
-    raise ValueError(f"unknown policy kind {kind!r} (expected 'centralized' or 'partial')")

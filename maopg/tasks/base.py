@@ -3,8 +3,13 @@
 A task owns a compiled MuJoCo scene, its robots' adapters, its option sets and its rules
 (reward, termination, observations). It knows nothing about termination *strategies* or
 learners: the option environment decides who chooses when, and calls these hooks. A user's own
-task subclasses :class:`Task`, fills in the abstract methods, and gets every strategy, the
-PettingZoo adapter and every learner for free.
+task subclasses :class:`Task`, fills in the abstract methods, registers itself with
+:func:`maopg.tasks.register_task`, and gets every strategy, the PettingZoo adapter, every learner
+and the registry-wide contract test (``tests/tasks/test_contract.py``) for free.
+
+Its options are written against protocols of the options layer (:mod:`maopg.options.base`),
+which the task implements; observation vectors follow the task's named
+:class:`~maopg.tasks.layout.ObsLayout` per agent.
 """
 
 from __future__ import annotations
@@ -12,6 +17,7 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -19,6 +25,7 @@ from maopg.options.base import Option
 from maopg.sim.render import CameraRenderer
 from maopg.sim.robots.base import RobotAdapter
 from maopg.sim.scene import Scene
+from maopg.tasks.layout import ObsLayout
 
 
 @dataclass(frozen=True)
@@ -51,12 +58,16 @@ class Task(ABC):
         """Registry name of the robot the agent drives."""
 
     @abstractmethod
-    def options(self, agent: int) -> Sequence[Option]:
+    def options(self, agent: int) -> Sequence[Option[Any]]:
         """The agent's option set (primitive actions when ``config.primitive``)."""
 
     @abstractmethod
+    def observation_layout(self, agent: int) -> ObsLayout:
+        """The named fields of the agent's observation vector."""
+
     def vector_size(self, agent: int) -> int:
         """Length of the agent's observation vector."""
+        return self.observation_layout(agent).size
 
     # ----------------------------------------------------------------- dynamics
     @abstractmethod
@@ -90,7 +101,8 @@ class Task(ABC):
     # ----------------------------------------------------------------- observations
     @abstractmethod
     def observe(self, agent: int) -> np.ndarray:
-        """A fresh float32 observation vector of the agent (called when its option ends)."""
+        """A fresh float32 observation vector of the agent (called when its option ends), laid
+        out as :meth:`observation_layout`."""
 
     def render(self, agents: Sequence[int], out: np.ndarray) -> None:
         """Render the listed agents' cameras into ``out[agent]`` (uint8 ``[N, H, W, 3]``)."""

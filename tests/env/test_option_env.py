@@ -8,8 +8,8 @@ from pettingzoo.test import parallel_api_test
 
 from maopg.env import DecisionPoint, OptionEnv, make_env
 from maopg.env.pettingzoo import OptionParallelEnv
-from maopg.rollout import RandomPolicy
-from maopg.tasks.tool_delivery import FETCH, TOOL_ROOM_WAIT, WORKSHOP
+from maopg.env.rollout import RandomPolicy
+from maopg.tasks.tool_delivery.constants import FETCH, TOOL_ROOM_WAIT, WORKSHOP
 
 GAMMA = 0.95
 # Option durations of the Fetch in ticks (docs/DESIGN.md §7); the Turtlebots' depend on distance.

@@ -16,22 +16,15 @@ import pytest
 import torch
 
 from maopg.env import make_env
+from maopg.env.rollout import RandomPolicy, run_episode
+from maopg.experiment.config import TrainConfig
+from maopg.experiment.run_dir import TIMING_COLUMNS, read_metrics
+from maopg.experiment.train_cli import main as train_main
+from maopg.experiment.trainer import train
 from maopg.learner.checkpoint import load_checkpoint
-from maopg.learner.macdqn import (
-    MacDQN,
-    MacDQNConfig,
-    SqueezedReplay,
-    conditional_argmax,
-    double_q_target,
-    epsilon_greedy,
-    point_arrays,
-)
-from maopg.policy import ObsBatch, ravel_joint
-from maopg.rollout import RandomPolicy, run_episode
-from train.__main__ import main as train_main
-from train.config import TrainConfig
-from train.run_log import TIMING_COLUMNS, read_metrics
-from train.trainer import train
+from maopg.learner.macdqn import MacDQN, MacDQNConfig, double_q_target
+from maopg.learner.replay import SqueezedReplay, point_arrays
+from maopg.policy import JointQNetwork, ObsBatch, conditional_argmax, epsilon_greedy, ravel_joint
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -215,7 +208,8 @@ def test_recurrent_training_targets_match_step_by_step_acting():
     replay, _, _ = _fill_replay(3, seed=2)
     torch.manual_seed(0)
     spec = make_env("tool_delivery").spec
-    learner = MacDQN(spec, MacDQNConfig(recurrent=True, batch_episodes=3), hidden=32)
+    q = JointQNetwork(spec, hidden=32, recurrent=True)
+    learner = MacDQN(q, MacDQNConfig(recurrent=True, batch_episodes=3))
     with torch.no_grad():
         learner.target.head.weight.mul_(-0.5)  # make target and online nets differ
     seq = replay.sample_episodes(3, torch.Generator().manual_seed(5))

@@ -5,7 +5,9 @@ import torch
 
 from maopg.env.contract import AgentSpec, EnvSpec, Strategy
 from maopg.learner import MAPPO, PPOConfig, TrainBatch, ValueNorm
-from maopg.policy import CentralCritic, ObsBatch, build_policy
+from maopg.policy import CentralCritic, CentralizedPolicy, ObsBatch, PartiallyCentralizedPolicy
+
+POLICIES = {"centralized": CentralizedPolicy, "partial": PartiallyCentralizedPolicy}
 
 SPEC = EnvSpec(
     task="fixed-batch",
@@ -48,7 +50,7 @@ def _fixed_batch(policy, critic, size: int = 96) -> TrainBatch:
 @pytest.mark.parametrize("kind", ["centralized", "partial"])
 def test_update_lowers_the_loss_on_a_fixed_batch(kind):
     torch.manual_seed(0)
-    policy = build_policy(kind, SPEC, hidden=32)
+    policy = POLICIES[kind](SPEC, hidden=32)
     critic = CentralCritic(SPEC, hidden=32)
     norm = ValueNorm()
     learner = MAPPO(policy, critic, norm, PPOConfig(epochs=8, num_minibatches=2))
@@ -85,7 +87,7 @@ def test_update_lowers_the_loss_on_a_fixed_batch(kind):
 def test_continuing_agents_do_not_move_the_ratio():
     """Rows where only agent b chooses: changing a's recorded option changes nothing."""
     torch.manual_seed(0)
-    policy = build_policy("centralized", SPEC, hidden=32)
+    policy = CentralizedPolicy(SPEC, hidden=32)
     critic = CentralCritic(SPEC, hidden=32)
     learner = MAPPO(policy, critic, None, PPOConfig())
     batch = _fixed_batch(policy, critic)

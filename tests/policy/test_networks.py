@@ -20,11 +20,12 @@ from maopg.policy import (
     NatureCNN,
     ObsBatch,
     PartiallyCentralizedPolicy,
-    build_policy,
     conditional_log_probs,
     stack_conditions,
     vector_slices,
 )
+
+POLICIES = {"centralized": CentralizedPolicy, "partial": PartiallyCentralizedPolicy}
 
 
 def make_spec(image_px: int | None = None) -> EnvSpec:
@@ -193,7 +194,7 @@ def test_seeded_construction_is_deterministic():
 def test_centralized_policy_distribution_and_init():
     spec = make_spec()
     torch.manual_seed(0)
-    policy = build_policy("centralized", spec, hidden=64)
+    policy = CentralizedPolicy(spec, hidden=64)
     assert isinstance(policy, CentralizedPolicy)
     obs = random_obs(spec, batch=6, seed=4)
     logits = policy.joint_logits(obs)
@@ -215,7 +216,7 @@ def test_centralized_policy_distribution_and_init():
 
 def test_partially_centralized_policy_uses_local_observations():
     spec = make_spec()
-    policy = build_policy("partial", spec, hidden=32)
+    policy = PartiallyCentralizedPolicy(spec, hidden=32)
     assert isinstance(policy, PartiallyCentralizedPolicy)
     obs = random_obs(spec, batch=4, seed=5)
     obs.vectors.requires_grad_(True)
@@ -246,7 +247,7 @@ def test_central_critic_reads_all_agents():
 def test_gradient_steps_raise_the_probability_of_a_target(kind):
     spec = make_spec(image_px=36)
     torch.manual_seed(0)
-    policy = build_policy(kind, spec, hidden=32, cnn_features=16)
+    policy = POLICIES[kind](spec, hidden=32, cnn_features=16)
     obs = random_obs(spec, batch=8, seed=7)
     choosing = torch.tensor([[True, True, True], [False, True, False]] * 4)
     running = torch.tensor([[-1, -1, -1], [1, -1, 4]] * 4)
@@ -265,8 +266,3 @@ def test_gradient_steps_raise_the_probability_of_a_target(kind):
         optimiser.step()
     after = policy.distribution(obs, choosing, running, available).log_prob(target).detach()
     assert torch.all(after > before + 0.5)
-
-
-def test_unknown_policy_kind():
-    with pytest.raises(ValueError, match="unknown policy kind"):
-        build_policy("factored", make_spec())  # type: ignore[arg-type]

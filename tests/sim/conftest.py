@@ -1,4 +1,4 @@
-"""Scenes shared by the simulation-core tests."""
+"""Scenes shared by the simulation-core tests, built by the tasks' own scene builders."""
 
 from __future__ import annotations
 
@@ -6,24 +6,31 @@ from collections.abc import Callable
 
 import pytest
 
-from maopg.sim.scene import Scene, SceneBuilder
-
-TD_TIMESTEP = 0.02
-TD_HOLDERS = (None, "fetch/gripper", "tb0/basket", "tb1/basket")
-
-
-def build_td_scene(tb0=(3.0, 1.5), tb1=(3.0, 2.5)) -> Scene:
-    """The Tool Delivery scene as the task composes it (docs/DESIGN.md §7)."""
-    builder = SceneBuilder("arenas/tool_delivery.xml", timestep=TD_TIMESTEP)
-    builder.add_robot("fetch", "fetch", (0.9, 1.8, 0.0))
-    builder.add_robot("tb0", "turtlebot", (*tb0, 0.0))
-    builder.add_robot("tb1", "turtlebot", (*tb1, 0.0))
-    for i in range(3):
-        builder.add_attachable(f"tool{i}/tool", TD_HOLDERS)
-    return builder.build()
+from maopg.sim.scene import Scene
+from maopg.tasks.tool_delivery.config import Config as TDConfig
+from maopg.tasks.tool_delivery.constants import TURTLEBOT_STARTS
+from maopg.tasks.tool_delivery.scene import build_scene as build_td_scene
+from maopg.tasks.water_filling.config import Config as WFConfig
+from maopg.tasks.water_filling.scene import build_scene as build_wf_scene
+from maopg.tasks.water_filling.scene import read_arena
 
 
-@pytest.fixture
+@pytest.fixture(scope="session")
 def td_scene() -> Callable[..., Scene]:
     """Factory for the Tool Delivery scene (Turtlebot start positions as arguments)."""
-    return build_td_scene
+
+    def build(tb0=TURTLEBOT_STARTS[0], tb1=TURTLEBOT_STARTS[1]) -> Scene:
+        return build_td_scene(TDConfig(), turtlebot_starts=(tb0, tb1))
+
+    return build
+
+
+@pytest.fixture(scope="session")
+def wf_scene() -> Callable[..., Scene]:
+    """Factory for the Water Filling scene of a config with overrides (robots, starts)."""
+
+    def build(**overrides) -> Scene:
+        config = WFConfig(**overrides)
+        return build_wf_scene(config, read_arena(config))
+
+    return build

@@ -14,30 +14,19 @@ import numpy as np
 import pytest
 
 from maopg.sim.planning import GridPlanner, occupancy_grid, path_length
-from maopg.sim.props import layout_sites
-from maopg.sim.robots import ASSETS_DIR
 from maopg.sim.robots.vehicle import VehicleConstants
-from maopg.sim.scene import Scene, SceneBuilder
+from maopg.sim.scene import Scene
+from maopg.tasks.water_filling.config import Config
+from maopg.tasks.water_filling.constants import GROUND_BAND
+from maopg.tasks.water_filling.scene import JAR_PROP, arena_path, read_arena
 
-ARENA = ASSETS_DIR / "arenas" / "water_filling.xml"
-SITES = layout_sites(ARENA)
-JARS = [SITES[f"jar_{i}"][:2] for i in range(3)]
-SPAWNS = [SITES["spawn_vehicle"][:2], SITES["spawn_drone"][:2], np.array([0.5, -0.6])]
-GROUND_BAND = (0.02, 0.8)
-
-
-def wf_scene(vehicle_at=None) -> Scene:
-    builder = SceneBuilder(ARENA, timestep=0.005)
-    for i in range(3):
-        builder.add_prop(f"jar{i}", "props/jar.xml", SITES[f"jar_{i}"])
-    pos = SITES["spawn_vehicle"] if vehicle_at is None else (*vehicle_at, 0.0)
-    builder.add_robot("vehicle", "vehicle", pos)
-    builder.add_robot("drone", "drone", SITES["spawn_drone"])
-    return builder.build()
+ROOM = read_arena(Config())
+JARS = list(ROOM.jar_xy)
+SPAWNS = [np.array(ROOM.starts[0]), np.array(ROOM.starts[1]), np.array([0.5, -0.6])]
 
 
 @pytest.fixture(scope="module")
-def scene() -> Scene:
+def scene(wf_scene) -> Scene:
     return wf_scene()
 
 
@@ -57,7 +46,7 @@ def test_grid_blocks_furniture_and_walls_but_not_robots_or_the_open_floor(
     assert not grid.is_free(JARS[0])  # jar stand
     assert not grid.is_free((20.0, 0.0))  # outside the room
     assert grid.is_free((0.0, 0.5))  # open floor
-    assert grid.is_free(SITES["spawn_vehicle"][:2])  # robots are not obstacles
+    assert grid.is_free(ROOM.starts[0])  # robots are not obstacles
     # the drone flies over partitions and furniture, not over the bookshelf or walls
     high = occupancy_grid(scene.model, radius=0.3, z_band=(1.3, 1.7))
     assert high.is_free((-2.75, 1.5)) and high.is_free((2.9, 2.2))
@@ -86,11 +75,11 @@ def test_paths_reach_every_jar_from_every_spawn_with_clearance(
 def _min_distance_to_static(model: mujoco.MjModel, pts, radius: float) -> float:
     """Smallest signed distance between a vertical probe cylinder of ``radius`` moved along the
     polyline and any static collidable geom, from ``mj_geomDistance`` (not the planner's grid)."""
-    spec = mujoco.MjSpec.from_file(str(ARENA))
-    for i in range(3):
-        frame = spec.worldbody.add_frame(pos=list(SITES[f"jar_{i}"]))
+    spec = mujoco.MjSpec.from_file(str(arena_path(Config())))
+    for i, site in enumerate(ROOM.jar_sites):
+        frame = spec.worldbody.add_frame(pos=list(site))
         spec.attach(
-            mujoco.MjSpec.from_file(str(ASSETS_DIR / "props" / "jar.xml")),
+            mujoco.MjSpec.from_file(str(JAR_PROP)),
             prefix=f"j{i}/",
             frame=frame,
         )
@@ -120,7 +109,7 @@ def _min_distance_to_static(model: mujoco.MjModel, pts, radius: float) -> float:
     return best
 
 
-def test_unreachable_goal_and_free_goal() -> None:
+def test_unreachable_goal_and_free_goal(wf_scene) -> None:
     model = wf_scene().model
     planner = GridPlanner.for_model(model, radius=0.36, z_band=GROUND_BAND)
     free_goal = (0.5, 0.5)
@@ -131,7 +120,7 @@ def test_unreachable_goal_and_free_goal() -> None:
         boxed.plan((-0.8, 0.0), (0.8, 0.0))
 
 
-def test_vehicle_follows_a_planned_path_to_a_jar_without_touching_anything() -> None:
+def test_vehicle_follows_a_planned_path_to_a_jar_without_touching_anything(wf_scene) -> None:
     """The physical check: drive the vehicle along the waypoints with its own controller."""
     scene = wf_scene()
     vehicle = scene.robots["vehicle"]

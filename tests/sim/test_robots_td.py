@@ -61,7 +61,7 @@ def test_registered_robot_composes_steps_and_sees(name: str) -> None:
 # --- Turtlebot -------------------------------------------------------------------------------
 def test_turtlebot_drives_3m_at_0p6_and_arrives_without_overshoot(td_scene) -> None:
     scene = td_scene(tb0=(3.0, 2.5), tb1=(3.0, 1.5))
-    tb = scene.robots["tb0"]
+    tb = scene.robots["turtlebot0"]
     goal = (6.0, 2.5)
     tb.drive_to(goal)
     xs = [tb.position[0]]
@@ -80,7 +80,7 @@ def test_turtlebot_drives_3m_at_0p6_and_arrives_without_overshoot(td_scene) -> N
 
 def test_turtlebot_heading_follows_motion_and_stops_at_walls(td_scene) -> None:
     scene = td_scene()
-    tb = scene.robots["tb0"]
+    tb = scene.robots["turtlebot0"]
     tb.set_velocity(0.0, -0.6)  # south, into the south wall (inner face y = 0)
     for _ in range(5):
         scene.advance(TICK)
@@ -92,11 +92,13 @@ def test_turtlebot_heading_follows_motion_and_stops_at_walls(td_scene) -> None:
 def test_turtlebots_share_a_waypoint(td_scene) -> None:
     """Ground robots do not collide with each other: both can stand at WA0."""
     scene = td_scene()
-    for name in ("tb0", "tb1"):
+    for name in ("turtlebot0", "turtlebot1"):
         scene.robots[name].drive_to((6.0, 3.0))
     for _ in range(8):
         scene.advance(TICK)
-    assert scene.robots["tb0"].at((6.0, 3.0), 0.02) and scene.robots["tb1"].at((6.0, 3.0), 0.02)
+    assert scene.robots["turtlebot0"].at((6.0, 3.0), 0.02) and scene.robots["turtlebot1"].at(
+        (6.0, 3.0), 0.02
+    )
 
 
 # --- Fetch -----------------------------------------------------------------------------------
@@ -119,7 +121,7 @@ def test_fetch_ik_reaches_shelf_desk_and_baskets(where: str, td_scene) -> None:
     scene = td_scene(tb0=(0.8, 3.0), tb1=(1.2, 3.0))
     fetch = scene.robots["fetch"]
     if where.startswith("basket"):
-        target = scene.body_position(f"tb{where[-1]}/basket") + np.array((0.0, 0.0, 0.06))
+        target = scene.body_position(f"turtlebot{where[-1]}/basket") + np.array((0.0, 0.0, 0.06))
     else:
         target = scene.site_position(where) + np.array((0.0, 0.0, 0.03))
     fetch.set_arm_targets(fetch.ik(target))

@@ -11,26 +11,13 @@ import math
 import numpy as np
 import pytest
 
-from maopg.sim.props import JarHandle, layout_sites
+from maopg.sim.props import JarHandle
 from maopg.sim.render import CameraRenderer
-from maopg.sim.robots import ASSETS_DIR
-from maopg.sim.scene import Scene, SceneBuilder
+from maopg.sim.scene import Scene
+from maopg.tasks.water_filling.config import Config
+from maopg.tasks.water_filling.scene import read_arena
 
-ARENA = ASSETS_DIR / "arenas" / "water_filling.xml"
-TIMESTEP = 0.005
-SITES = layout_sites(ARENA)
-
-
-def wf_scene(extra: tuple[str, str, tuple[float, float, float]] | None = None) -> Scene:
-    """The WF scene as the task composes it: arena, three jars, vehicle and drone."""
-    builder = SceneBuilder(ARENA, timestep=TIMESTEP)
-    for i in range(3):
-        builder.add_prop(f"jar{i}", "props/jar.xml", SITES[f"jar_{i}"])
-    builder.add_robot("vehicle", "vehicle", SITES["spawn_vehicle"])
-    builder.add_robot("drone", "drone", SITES["spawn_drone"])
-    if extra is not None:
-        builder.add_robot(*extra)
-    return builder.build()
+JARS = read_arena(Config()).jar_xy
 
 
 def run_until(scene: Scene, done, limit: float, dt: float = 0.05) -> float | None:
@@ -44,7 +31,7 @@ def run_until(scene: Scene, done, limit: float, dt: float = 0.05) -> float | Non
     return None
 
 
-def test_vehicle_reaches_waypoint_3m_away_at_half_a_metre_per_second() -> None:
+def test_vehicle_reaches_waypoint_3m_away_at_half_a_metre_per_second(wf_scene) -> None:
     scene = wf_scene()
     vehicle = scene.robots["vehicle"]
     start = vehicle.position
@@ -69,7 +56,7 @@ def test_vehicle_reaches_waypoint_3m_away_at_half_a_metre_per_second() -> None:
     assert vehicle.at(goal, 0.05)
 
 
-def test_drone_takes_off_holds_altitude_and_flies_5m_at_2mps() -> None:
+def test_drone_takes_off_holds_altitude_and_flies_5m_at_2mps(wf_scene) -> None:
     scene = wf_scene()
     drone = scene.robots["drone"]
     ground = drone.position
@@ -105,7 +92,7 @@ def test_drone_takes_off_holds_altitude_and_flies_5m_at_2mps() -> None:
     assert drone.at(goal, 0.05)
 
 
-def test_drone_turns_to_a_commanded_yaw_while_hovering() -> None:
+def test_drone_turns_to_a_commanded_yaw_while_hovering(wf_scene) -> None:
     scene = wf_scene()
     drone = scene.robots["drone"]
     p = drone.position
@@ -115,7 +102,7 @@ def test_drone_turns_to_a_commanded_yaw_while_hovering() -> None:
     assert drone.at((p[0], p[1], 1.2), 0.05)
 
 
-def test_drone_tilts_to_move() -> None:
+def test_drone_tilts_to_move(wf_scene) -> None:
     scene = wf_scene()
     drone = scene.robots["drone"]
     p = drone.position
@@ -127,15 +114,15 @@ def test_drone_tilts_to_move() -> None:
     assert zaxis[0] > 0.1, "accelerating toward +x needs the thrust axis tilted toward +x"
 
 
-def test_diffbot_rolls_to_a_waypoint_3m_away() -> None:
-    scene = wf_scene(extra=("diff", "diffbot", (-1.0, 0.5, 0.0)))
-    bot = scene.robots["diff"]
+def test_diffbot_rolls_to_a_waypoint_3m_away(wf_scene) -> None:
+    scene = wf_scene(vehicle_robot="diffbot", vehicle_start=(-1.0, 0.5))  # a swapped vehicle
+    bot = scene.robots["vehicle"]
     goal = (2.0, 0.5)
     bot.drive_to(goal)
     t = run_until(scene, lambda: bot.at(goal, 0.08), limit=10.0)
     assert t is not None, f"diffbot stuck at {bot.position}"
     assert t <= 3.0 / 0.55 + 1.5, f"3 m took {t:.2f} s"
-    wheel = scene.model.joint("diff/wheel_left")
+    wheel = scene.model.joint("vehicle/wheel_left")
     # motion came from the wheels: ~3 m / 0.06 m radius of rolling
     assert scene.data.qpos[wheel.qposadr[0]] == pytest.approx(3.0 / 0.06, rel=0.1)
     # a target behind it: it turns round and gets there too
@@ -143,11 +130,10 @@ def test_diffbot_rolls_to_a_waypoint_3m_away() -> None:
     assert run_until(scene, lambda: bot.at((1.0, -0.5), 0.08), limit=8.0) is not None
 
 
-def test_jar_liquid_level_is_visible_from_the_drone_camera() -> None:
+def test_jar_liquid_level_is_visible_from_the_drone_camera(wf_scene) -> None:
     scene = wf_scene()
     drone = scene.robots["drone"]
-    jar = SITES["jar_1"]
-    spot = jar[:2] + 0.95 * np.array([-math.sqrt(0.5), -math.sqrt(0.5)])
+    spot = JARS[1] + 0.95 * np.array([-math.sqrt(0.5), -math.sqrt(0.5)])
     drone.fly_to((spot[0], spot[1], 1.15), yaw=math.pi / 4)  # face the jar
     run_until(scene, lambda: drone.at((spot[0], spot[1], 1.15), 0.03), limit=8.0)
     handle = JarHandle(scene.model, "jar1", scene.data)
@@ -168,7 +154,7 @@ def test_jar_liquid_level_is_visible_from_the_drone_camera() -> None:
     assert yellow(full) >= 2 * yellow(low) + 10, (yellow(full), yellow(low))
 
 
-def test_jar_level_geometry_follows_level_and_clips() -> None:
+def test_jar_level_geometry_follows_level_and_clips(wf_scene) -> None:
     scene = wf_scene()
     handle = JarHandle(scene.model, "jar0", scene.data)
     g = handle.geom_id

@@ -14,9 +14,9 @@ from maopg.sim.scene import MJCFError, Scene, SceneBuilder
 
 def test_composed_scene_has_prefixed_robots_props_and_cameras(td_scene) -> None:
     scene = td_scene()
-    assert set(scene.robots) == {"fetch", "tb0", "tb1"}
-    assert scene.robots["tb1"].camera_name == "tb1/camera"
-    np.testing.assert_allclose(scene.robots["tb1"].position, (3.0, 2.5, 0.0), atol=1e-9)
+    assert set(scene.robots) == {"fetch", "turtlebot0", "turtlebot1"}
+    assert scene.robots["turtlebot1"].camera_name == "turtlebot1/camera"
+    np.testing.assert_allclose(scene.robots["turtlebot1"].position, (3.0, 2.5, 0.0), atol=1e-9)
     np.testing.assert_allclose(scene.site_position("desk/slot0"), (1.6, 1.8, 0.75), atol=1e-9)
     # every tool starts on its shelf slot, held by the world
     for i in range(3):
@@ -82,12 +82,12 @@ def _random_episode(scene: Scene, seed: int, ticks: int = 40) -> tuple[np.ndarra
     rng = np.random.default_rng(seed)
     fetch = scene.robots["fetch"]
     for t in range(ticks):
-        for name in ("tb0", "tb1"):
+        for name in ("turtlebot0", "turtlebot1"):
             scene.robots[name].set_velocity(*rng.uniform(-0.6, 0.6, 2))
         fetch.set_arm_targets(rng.uniform(-1.0, 1.0, 4))
         fetch.set_gripper(bool(rng.integers(2)))
         if t == 10:
-            scene.attach("tool1/tool", "tb0/basket")
+            scene.attach("tool1/tool", "turtlebot0/basket")
         scene.advance(1.0)
     return scene.data.qpos.copy(), scene.data.qvel.copy()
 
@@ -102,7 +102,7 @@ def test_same_seed_gives_bit_identical_state_across_builds(td_scene) -> None:
 
 def test_tool_travels_shelf_to_gripper_to_desk_to_basket_without_jumps(td_scene) -> None:
     scene = td_scene(tb0=(0.8, 3.0))
-    fetch, tb0 = scene.robots["fetch"], scene.robots["tb0"]
+    fetch, tb0 = scene.robots["fetch"], scene.robots["turtlebot0"]
     tool = "tool2/tool"
     grasp_point = scene.body_position(tool)
 
@@ -160,7 +160,7 @@ def test_place_and_reset_restore_welds_colours_and_state(td_scene) -> None:
         atol=1e-3,
     )
     scene.set_geom_rgba("human/stage0", (0.0, 1.0, 0.0, 1.0))
-    scene.robots["tb0"].drive_to((6.0, 3.0))
+    scene.robots["turtlebot0"].drive_to((6.0, 3.0))
     scene.advance(1.0)
     scene.reset()
     fresh = td_scene()

@@ -5,9 +5,11 @@ from __future__ import annotations
 import numpy as np
 
 from maopg.env import make_env
-from maopg.rollout import run_episode, scripted_policy
+from maopg.env.rollout import reference_policy, run_episode
 from maopg.sim import robots
 from maopg.sim.robots import get_robot, register_robot
+
+GO_WS_AND_WAIT = ("GoToWS", "GoToWS", "Wait")
 
 
 def test_diffbot_replaces_the_turtlebots_through_the_task_config() -> None:
@@ -16,7 +18,7 @@ def test_diffbot_replaces_the_turtlebots_through_the_task_config() -> None:
     robot = env.task.turtlebots[0]
     assert type(robot).__name__ == "DiffbotAdapter"
     start = robot.position
-    result = run_episode(env, scripted_policy("tool_delivery", env.spec))
+    result = run_episode(env, reference_policy("scripted", env))
     # A slower, turning differential drive still completes the task with the same policy.
     assert result.solved and result.ret > 150
     assert np.linalg.norm(robot.position[:2] - start[:2]) > 1.0
@@ -31,14 +33,15 @@ def test_a_robot_registered_from_a_file_is_used_by_name(monkeypatch) -> None:
     env = make_env("tool_delivery", overrides={"turtlebot_robot": "my_ground_robot"})
     point = env.reset()
     while point.ticks < 8:  # both drive toward the workshop, the Fetch waits
-        point = env.step(np.where(point.choosing, [0, 0, 5], point.running))
+        joint = [env.spec.agents[i].option_index(o) for i, o in enumerate(GO_WS_AND_WAIT)]
+        point = env.step(np.where(point.choosing, joint, point.running))
     assert env.spec.agents[1].robot == "my_ground_robot"
     assert env.task.turtlebots[1].position[0] > 3.2
     env.close()
 
 
 def test_the_eval_cli_swaps_robots_by_config(capsys) -> None:
-    from eval.__main__ import main
+    from maopg.experiment.eval_cli import main
 
     argv = ["evaluate", "--reference", "scripted", "--episodes", "1"]
     main([*argv, "--set", "turtlebot_robot=diffbot"])

@@ -10,11 +10,24 @@ import numpy as np
 import pytest
 
 from maopg.env import make_env
-from maopg.rollout import RandomPolicy, evaluate_reference, run_episode, scripted_policy
-from maopg.tasks.tool_delivery import STAGE_OFF, STAGE_ON, TOOL, WORKSHOP
+from maopg.env.rollout import RandomPolicy, evaluate_reference, reference_policy, run_episode
+from maopg.tasks.tool_delivery import constants as td
+from maopg.tasks.tool_delivery.config import Config
+from maopg.tasks.tool_delivery.constants import (
+    FETCH_OBS,
+    STAGE_OFF,
+    STAGE_ON,
+    TOOL,
+    TURTLEBOT_OBS,
+    WORKSHOP,
+)
+from maopg.tasks.tool_delivery.options import option_sets
 
-GO_WS, GO_TR, GET_TOOL = 0, 1, 2
-PASS0, PASS1, SEARCH0, SEARCH1, SEARCH2, WAIT = range(6)
+_TURTLE, _FETCH = ([o.name for o in opts] for opts in option_sets(Config())[1:])
+GO_WS, GO_TR, GET_TOOL = (_TURTLE.index(n) for n in (td.GO_TO_WS, td.GO_TO_TR, td.GET_TOOL))
+PASS0, PASS1 = (_FETCH.index(td.pass_to(w)) for w in (0, 1))
+SEARCH0, SEARCH1, SEARCH2 = (_FETCH.index(td.search_tool(j)) for j in range(3))
+WAIT = _FETCH.index(td.WAIT)
 # The canonical task's scripted episode, tick by tick (measured on MacDeepMARL's
 # ObjSearchDelivery_v4; copied from the project's shared reference material).
 TRACE = Path(__file__).parents[1] / "data" / "tool_delivery_scripted_trace.csv"
@@ -29,6 +42,25 @@ def until_fetch_chooses(env, point, turtles=(GO_TR, GO_TR)):
     while not point.choosing[2] and not point.done:
         point = env.step(np.where(point.choosing, [*turtles, -1], point.running))
     return point
+
+
+def test_option_order_is_the_one_checkpoints_index() -> None:
+    env, primitive_env = new_env(), new_env("primitive")
+    spec, primitive = env.spec, primitive_env.spec
+    env.close()
+    primitive_env.close()
+    assert [a.option_names for a in spec.agents] == [
+        ("GoToWS", "GoToTR", "GetTool"),
+        ("GoToWS", "GoToTR", "GetTool"),
+        ("PassTo(0)", "PassTo(1)", "SearchTool(0)", "SearchTool(1)", "SearchTool(2)", "Wait"),
+    ]
+    assert primitive.agents[0].option_names == ("North", "South", "East", "West", "Stay")
+    assert primitive.agents[2].option_names == spec.agents[2].option_names
+    assert [a.layout.fields for a in spec.agents] == [
+        (("location", 4), ("human_stage", 4), ("carried", 3), ("staged", 3)),
+        (("location", 4), ("human_stage", 4), ("carried", 3), ("staged", 3)),
+        (("staged", 3), ("waiting", 2)),
+    ]
 
 
 def test_scripted_episode_matches_the_canonical_trace() -> None:
@@ -49,7 +81,7 @@ def test_scripted_episode_matches_the_canonical_trace() -> None:
         stages.append(env_.task.state.stage)
 
     env.add_tick_listener(on_tick)
-    result = run_episode(env, scripted_policy("tool_delivery", env.spec), on_step=on_step)
+    result = run_episode(env, reference_policy("scripted", env), on_step=on_step)
     assert result.solved and result.ret == 259.0 and result.ticks == 41
     # Three deliveries of +100 on top of -1 per tick; the human advances when a stage's
     # 18 ticks are over and its tool has arrived (stage 1 on the first delivery, tick 19).
@@ -149,7 +181,7 @@ def test_staging_respects_the_two_tool_limit_and_each_tool_is_found_once() -> No
 
 def test_episode_ends_at_completion_or_at_150_ticks() -> None:
     env = new_env()
-    result = run_episode(env, scripted_policy("tool_delivery", env.spec))
+    result = run_episode(env, reference_policy("scripted", env))
     assert result.solved and result.ticks < 150
     point = env.reset()
     while not point.done:
@@ -213,9 +245,9 @@ def joint_observation_policy():
         if point.ticks == 0:
             searched[0] = 0
         joint = point.running.copy()
-        carrying = [point.vectors[w][8:11].any() for w in (0, 1)]
-        at_desk = [point.vectors[w][2] > 0 for w in (0, 1)]
-        staged = int(np.argmax(point.vectors[2][:3]))
+        carrying = [point.vectors[w][TURTLEBOT_OBS["carried"]].any() for w in (0, 1)]
+        at_desk = [point.vectors[w][TURTLEBOT_OBS["location"]][2] > 0 for w in (0, 1)]
+        staged = int(np.argmax(point.vectors[2][FETCH_OBS["staged"]]))
         for w in (0, 1):
             if point.choosing[w]:
                 joint[w] = GO_WS if carrying[w] else GET_TOOL

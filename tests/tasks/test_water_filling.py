@@ -13,24 +13,31 @@ import numpy as np
 import pytest
 
 from maopg.env import make_env
+from maopg.env.rollout import RandomPolicy, reference_policy, run_episode
 from maopg.options.base import Execution
-from maopg.rollout import RandomPolicy, run_episode
 from maopg.sim.planning import GridPlanner, path_length
 from maopg.tasks import load
-from maopg.tasks.water_filling import (
-    DRONE,
-    NUM_JARS,
-    VEHICLE,
-    Config,
-    WaterFilling,
-    WaterLevels,
-    jar_reward,
-    scripted_policy,
-)
+from maopg.tasks.water_filling.config import Config
+from maopg.tasks.water_filling.constants import DRONE, NUM_JARS, OBS, VEHICLE
+from maopg.tasks.water_filling.options import option_sets
+from maopg.tasks.water_filling.scene import read_arena
+from maopg.tasks.water_filling.task import WaterFilling
+from maopg.tasks.water_filling.water import WaterLevels, jar_reward
 
-JAR_XY = WaterFilling(Config()).jar_xy  # read from the arena's sites
+JAR_XY = read_arena(Config()).jar_xy  # read from the arena's sites
 SPAWNS = ((-0.4, -0.3), (0.6, 0.4), (0.5, -0.6))  # the arena's two spawn sites and one more
-NAV_TO_VEHICLE, NAV_TO_DRONE, FILL = 7, 4, 4  # option ids: NavTo(0) / NavTo(0) / Fill(0)
+_NAMES = [[o.name for o in opts] for opts in option_sets(Config())]
+
+
+def option(agent: int, name: str) -> int:
+    """Id of an option of the default (non-primitive) task."""
+    return _NAMES[agent].index(name)
+
+
+NAV_TO_VEHICLE, NAV_TO_FILL = option(VEHICLE, "NavTo(0)"), option(VEHICLE, "NavToFill(0)")
+NAV_TO_DRONE = option(DRONE, "NavTo(0)")
+FILL = option(VEHICLE, "Fill(0)")
+KNOWN, ELAPSED = OBS["known_levels"], OBS["elapsed"]
 
 
 # ---------------------------------------------------------------------------- water dynamics
@@ -131,17 +138,22 @@ def test_known_levels_change_only_when_a_robot_is_within_one_metre() -> None:
     point = env.reset(seed=2)
     max_ticks = env.spec.max_ticks
     seen = unseen = 0
-    prev_known = point.vectors[VEHICLE][:NUM_JARS].copy()
-    prev_elapsed = point.vectors[VEHICLE][NUM_JARS : 2 * NUM_JARS] * max_ticks
+    prev_known = point.vectors[VEHICLE][KNOWN].copy()
+    prev_elapsed = point.vectors[VEHICLE][ELAPSED] * max_ticks
+    vehicle, drone = env.spec.agents
+    left, right, fill = (vehicle.option_index(n) for n in ("Left", "Right", "Fill"))
+    drone_moves = [drone.option_index(n) for n in ("Up", "Down", "Left", "Right")]
     for _ in range(120):
         # vehicle: Left/Right (toward / away from the room centre) or Fill; drone: random
-        joint = np.array([rng.choice([2, 3, 4] if point.available[0][4] else [2, 3]), 0])
-        joint[DRONE] = rng.integers(4)
+        moves = [left, right, fill] if point.available[VEHICLE][fill] else [left, right]
+        joint = np.array([rng.choice(moves), 0])
+        joint[DRONE] = drone_moves[rng.integers(4)]
         point = env.step(joint)
         task = point.info["task"]
         obs = point.vectors[VEHICLE]
-        known, elapsed = obs[:NUM_JARS], obs[NUM_JARS : 2 * NUM_JARS] * max_ticks
-        assert np.allclose(point.vectors[DRONE][: 2 * NUM_JARS], obs[: 2 * NUM_JARS])  # shared
+        known, elapsed = obs[KNOWN], obs[ELAPSED] * max_ticks
+        for field in (KNOWN, ELAPSED):  # the knowledge is shared
+            assert np.allclose(point.vectors[DRONE][field], obs[field])
         robots = [np.array(task["vehicle_xy"]), np.array(task["drone_xyz"][:2])]
         for jar in range(NUM_JARS):
             near = min(np.linalg.norm(r - JAR_XY[jar]) for r in robots) <= 1.0
@@ -213,7 +225,7 @@ def test_nav_to_reaches_every_jar_from_every_spawn_in_time_without_collisions(sp
             # the time its speed allows along the shortest path (an independent A* plan)
             ref = GridPlanner(task.planners[agent].grid)
             length = path_length(spawn, ref.plan(spawn, JAR_XY[jar]))
-            bound = math.ceil(length / task.step_length[agent]) + 6
+            bound = math.ceil(length / task.step_length(agent)) + 6
             assert ended[agent] <= bound, (agent, jar, ended[agent], bound)
         assert task.updated[jar] == task.ticks  # its level is observed
         assert ended[DRONE] < ended[VEHICLE], ended  # durations follow from speed
@@ -224,19 +236,20 @@ def test_one_tick_moves_and_walls_stop_the_vehicle() -> None:
     env = make_env("water_filling", "continue")
     task = env.task
     env.reset(seed=0)
-    x0, y0 = task.xy(VEHICLE)
-    d0 = task.xy(DRONE)
-    point = env.step([3, 0])  # vehicle Right, drone Up: both one tick
+    x0, y0 = task.planar_position(VEHICLE)
+    d0 = task.planar_position(DRONE)
+    right_up = [option(VEHICLE, "Right"), option(DRONE, "Up")]
+    point = env.step(right_up)  # both one tick
     assert point.duration == 1 and point.choosing.all()
-    x1, y1 = task.xy(VEHICLE)
+    x1, y1 = task.planar_position(VEHICLE)
     # from rest the velocity servo's 0.1 s lag costs ~0.05 m; the next tick is a full 0.25 m
     assert 0.17 < x1 - x0 <= 0.26 and abs(y1 - y0) < 0.01
-    env.step([3, 0])
-    assert task.xy(VEHICLE)[0] - x1 == pytest.approx(0.25, abs=0.02)
-    assert task.xy(DRONE)[1] - d0[1] > 0.5  # accelerating north toward its 1 m/tick cruise
+    env.step(right_up)
+    assert task.planar_position(VEHICLE)[0] - x1 == pytest.approx(0.25, abs=0.02)
+    assert task.planar_position(DRONE)[1] - d0[1] > 0.5  # accelerating north: 1 m/tick cruise
     for _ in range(30):  # 7.5 m of Left moves from x ~ -0.15: the west wall stops it
-        point = env.step([2, 1])
-    x, _ = task.xy(VEHICLE)
+        point = env.step([option(VEHICLE, "Left"), option(DRONE, "Down")])
+    x, _ = task.planar_position(VEHICLE)
     assert -4.8 < x < -4.6, x
     assert any("wall_w" in c for c in _robot_contacts(task))  # pressed against it, no tunnelling
     assert abs(task.drone.position[2] - task.config.cruise_altitude) < 0.1
@@ -248,7 +261,7 @@ def test_jar_level_is_visible_in_both_cameras_after_nav_to() -> None:
     task = load("water_filling", {"images": True})
     task.reset(0)
     jar = 1
-    _run_options(task, {VEHICLE: NAV_TO_VEHICLE + 3 + jar, DRONE: NAV_TO_DRONE + jar})
+    _run_options(task, {VEHICLE: NAV_TO_FILL + jar, DRONE: NAV_TO_DRONE + jar})
     assert task.water.levels[jar] == 1.0 and task.fills == 1  # NavToFill filled it
     frames = {}
     for level in (1.0, 0.2):
@@ -265,7 +278,7 @@ def test_jar_level_is_visible_in_both_cameras_after_nav_to() -> None:
 # ---------------------------------------------------------------------------- policies, strategies
 def test_scripted_beats_random_by_a_clear_margin_over_ten_seeds() -> None:
     env = make_env("water_filling", "continue", seed=0)
-    scripted = [run_episode(env, scripted_policy(env.spec), seed=s).ret for s in range(10)]
+    scripted = [run_episode(env, reference_policy("scripted", env), seed=s).ret for s in range(10)]
     random = [run_episode(env, RandomPolicy(env.spec, s), seed=s).ret for s in range(10)]
     env.close()
     s_mean, r_mean = np.mean(scripted), np.mean(random)
@@ -289,8 +302,10 @@ def test_every_strategy_runs_an_episode(strategy: str) -> None:
     if strategy == "any":
         assert seen[-1].images.shape == (2, 64, 64, 3) and seen[-1].images.std() > 5
     for p in seen:
-        vec = p.vectors[VEHICLE]
-        assert np.all((vec[:6] >= 0) & (vec[:6] <= 1)) and np.all(np.abs(vec[6:]) <= 1)
+        fields = OBS.split(p.vectors[VEHICLE])
+        knowledge = np.concatenate([fields["known_levels"], fields["elapsed"]])
+        assert np.all((knowledge >= 0) & (knowledge <= 1))
+        assert np.all(np.abs(fields["position"]) <= 1)
     env.close()
 
 

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from maopg.sim.assets import ASSETS_DIR  # robots, props, arenas (see maopg/sim/assets.py)
 from maopg.sim.robots.base import (
     ArmAdapter,
     DroneAdapter,
@@ -21,9 +22,6 @@ from maopg.sim.robots.base import (
     PlanarGroundAdapter,
     RobotAdapter,
 )
-
-#: The repository's ``assets/`` folder (robots, props, arenas).
-ASSETS_DIR = Path(__file__).resolve().parents[3] / "assets"
 
 __all__ = [
     "ASSETS_DIR",

@@ -1,0 +1,358 @@
+"""Vector environments: ``E`` option environments stepped in lockstep, behind one interface.
+
+A :class:`VectorEnv` backend only builds and steps environments; the backends differ in where
+the environments live (:class:`LocalVectorEnv`: this process; :class:`ProcessVectorEnv`:
+``spawn`` worker processes), chosen by name through :data:`BACKENDS`, so a distributed backend is
+one more implementation. Everything that decides *what* is simulated stays in the main process,
+in :class:`SeededVectorEnv`, whatever the backend:
+
+- environment ``e`` plays episode ``j`` from the seed :func:`episode_seed` ``(run seed, e, j)``;
+- results are gathered in environment order, whichever worker finishes first;
+- the joint options of each current episode are logged, so a checkpoint can rebuild every
+  environment by *replaying* them (:meth:`SeededVectorEnv.load_state_dict`): the simulation is
+  deterministic given seed and actions, so physics, option executions and observations come
+  back bit for bit. A replay whose decision point differs from the recorded one (fingerprint of
+  observations, condition and tick count) raises instead of silently diverging.
+
+So the learning curve is a function of the run seed alone, for any backend and worker count.
+
+Rendering. A ``fork``ed child hangs if its parent already created a MuJoCo renderer
+(docs/DESIGN.md §2), so workers are ``spawn``ed and the main process never builds an environment
+when workers are used: it asks worker 0 for the :class:`~maopg.env.contract.EnvSpec`.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import copy
+import hashlib
+import multiprocessing as mp
+import traceback
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from multiprocessing.connection import Connection
+from typing import Any, Protocol
+
+import numpy as np
+import torch
+
+from maopg.env.contract import DecisionPoint, EnvSpec
+from maopg.env.option_env import OptionEnv
+
+
+def episode_seed(run_seed: int, env_index: int, episode: int) -> int:
+    """The reset seed of episode ``episode`` of environment ``env_index`` in run ``run_seed``."""
+    return int(np.random.SeedSequence([run_seed, env_index, episode]).generate_state(1)[0])
+
+
+@dataclass(frozen=True)
+class EnvConfig:
+    """Everything needed to build one environment in any process (picklable)."""
+
+    task: str
+    strategy: str
+    images: bool = False
+    image_size: int = 64
+    gamma: float = 0.99
+    overrides: Mapping[str, Any] = field(default_factory=dict)
+
+    def make(self, seed: int) -> OptionEnv:
+        from maopg.env import make_env
+
+        return make_env(
+            self.task,
+            self.strategy,
+            seed=seed,
+            images=self.images,
+            image_size=self.image_size,
+            gamma=self.gamma,
+            overrides=dict(self.overrides) or None,
+        )
+
+
+@dataclass
+class StepResult:
+    """One environment's answer to a step: the point to act on next, and the episode's final
+    point when the step ended the episode (the environment has then already been reset)."""
+
+    point: DecisionPoint
+    final: DecisionPoint | None = None
+
+    @property
+    def outcome(self) -> DecisionPoint:
+        """The point that reports this step's reward, duration and termination."""
+        return self.final if self.final is not None else self.point
+
+
+class VectorEnv(Protocol):
+    """What a backend does for :class:`SeededVectorEnv`; every list is in environment order."""
+
+    num_envs: int
+
+    def spec(self) -> EnvSpec: ...
+
+    def reset(self, seeds: Sequence[int]) -> list[DecisionPoint]:
+        """Reset environment ``e`` with ``seeds[e]``."""
+        ...
+
+    def step(self, joints: np.ndarray, next_seeds: Sequence[int]) -> list[StepResult]:
+        """Apply ``joints[e]``; an episode that ends is reset at once with ``next_seeds[e]``."""
+        ...
+
+    def replay(
+        self, seeds: Sequence[int], actions: Sequence[Sequence[np.ndarray]]
+    ) -> list[DecisionPoint]:
+        """Reset environment ``e`` with ``seeds[e]`` and re-apply its joint options."""
+        ...
+
+    def close(self) -> None: ...
+
+
+class LocalVectorEnv:
+    """Environments in this process (also the body of each worker of the process backend)."""
+
+    def __init__(self, config: EnvConfig, env_indices: Sequence[int], run_seed: int) -> None:
+        self.envs = [config.make(episode_seed(run_seed, e, 0)) for e in env_indices]
+        self.num_envs = len(self.envs)
+
+    def spec(self) -> EnvSpec:
+        return self.envs[0].spec
+
+    def reset(self, seeds: Sequence[int]) -> list[DecisionPoint]:
+        return [copy.deepcopy(env.reset(seed=s)) for env, s in zip(self.envs, seeds, strict=True)]
+
+    def step(self, joints: np.ndarray, next_seeds: Sequence[int]) -> list[StepResult]:
+        results = []
+        for env, joint, seed in zip(self.envs, joints, next_seeds, strict=True):
+            point = copy.deepcopy(env.step(joint))
+            if point.done:
+                results.append(StepResult(copy.deepcopy(env.reset(seed=seed)), point))
+            else:
+                results.append(StepResult(point))
+        return results
+
+    def replay(
+        self, seeds: Sequence[int], actions: Sequence[Sequence[np.ndarray]]
+    ) -> list[DecisionPoint]:
+        points = []
+        for env, seed, joints in zip(self.envs, seeds, actions, strict=True):
+            point = env.reset(seed=seed)
+            for joint in joints:
+                point = env.step(joint)
+                if point.done:
+                    raise RuntimeError("replayed actions ended the episode: log is inconsistent")
+            points.append(copy.deepcopy(point))
+        return points
+
+    def close(self) -> None:
+        for env in self.envs:
+            env.close()
+
+
+_CALLS = ("spec", "reset", "step", "replay")
+"""The :class:`LocalVectorEnv` methods a worker serves."""
+
+
+def _worker(conn: Connection, config: EnvConfig, env_indices: list[int], run_seed: int) -> None:
+    """Worker process loop: build the environments, then serve ``(call, args)`` requests."""
+    import maopg  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
+
+    envs = None
+    try:
+        envs = LocalVectorEnv(config, env_indices, run_seed)
+        conn.send(("ok", None))
+        while True:
+            call, args = conn.recv()
+            if call == "close":
+                break
+            if call not in _CALLS:
+                raise ValueError(f"unknown worker call {call!r}")
+            conn.send(("ok", getattr(envs, call)(*args)))
+    except (EOFError, KeyboardInterrupt):
+        pass
+    except Exception:
+        conn.send(("error", traceback.format_exc()))
+    finally:
+        if envs is not None:
+            envs.close()
+        conn.close()
+
+
+class ProcessVectorEnv:
+    """Environments split over ``num_workers`` ``spawn``ed processes (at most one per env)."""
+
+    def __init__(
+        self, config: EnvConfig, num_envs: int, run_seed: int, *, num_workers: int = 2
+    ) -> None:
+        if num_workers < 1:
+            raise ValueError(f"num_workers must be >= 1, got {num_workers}")
+        ctx = mp.get_context("spawn")
+        self.num_envs = num_envs
+        groups = np.array_split(np.arange(num_envs), min(num_workers, num_envs))
+        self.groups = [[int(e) for e in g] for g in groups]
+        self.conns: list[Connection] = []
+        self.procs = []
+        for group in self.groups:
+            parent, child = ctx.Pipe()
+            proc = ctx.Process(target=_worker, args=(child, config, group, run_seed), daemon=True)
+            proc.start()
+            child.close()
+            self.conns.append(parent)
+            self.procs.append(proc)
+        for conn in self.conns:
+            self._receive(conn)
+
+    @staticmethod
+    def _receive(conn: Connection) -> Any:
+        try:
+            status, payload = conn.recv()
+        except EOFError as err:
+            raise RuntimeError("an environment worker process died") from err
+        if status == "error":
+            raise RuntimeError(f"environment worker failed:\n{payload}")
+        return payload
+
+    def _split(self, call: str, *per_env_args: Sequence[Any]) -> list[Any]:
+        """``call`` in every worker with its slice of each per-environment argument."""
+        for conn, group in zip(self.conns, self.groups, strict=True):
+            conn.send((call, tuple([arg[e] for e in group] for arg in per_env_args)))
+        results: list[Any] = []
+        for conn in self.conns:
+            results.extend(self._receive(conn))
+        return results
+
+    def spec(self) -> EnvSpec:
+        self.conns[0].send(("spec", ()))
+        return self._receive(self.conns[0])
+
+    def reset(self, seeds: Sequence[int]) -> list[DecisionPoint]:
+        return self._split("reset", seeds)
+
+    def step(self, joints: np.ndarray, next_seeds: Sequence[int]) -> list[StepResult]:
+        return self._split("step", joints, next_seeds)
+
+    def replay(
+        self, seeds: Sequence[int], actions: Sequence[Sequence[np.ndarray]]
+    ) -> list[DecisionPoint]:
+        return self._split("replay", seeds, actions)
+
+    def close(self) -> None:
+        for conn, proc in zip(self.conns, self.procs, strict=True):
+            with contextlib.suppress(BrokenPipeError, OSError):
+                conn.send(("close", ()))
+            proc.join(timeout=10)
+            if proc.is_alive():
+                proc.terminate()
+            conn.close()
+
+
+BACKENDS: dict[str, Callable[..., VectorEnv]] = {
+    "local": lambda config, num_envs, run_seed, num_workers: LocalVectorEnv(
+        config, range(num_envs), run_seed
+    ),
+    "processes": lambda config, num_envs, run_seed, num_workers: ProcessVectorEnv(
+        config, num_envs, run_seed, num_workers=num_workers
+    ),
+}
+"""Backend name → ``factory(config, num_envs, run_seed, num_workers)``."""
+
+
+def _digest(point: DecisionPoint) -> str:
+    """Fingerprint of a decision point's observations and condition (to verify a replay)."""
+    digest = hashlib.sha256()
+    for array in (*point.vectors, point.choosing, point.running, *point.available):
+        digest.update(np.ascontiguousarray(array).tobytes())
+    if point.images is not None:
+        digest.update(np.ascontiguousarray(point.images).tobytes())
+    digest.update(str(point.ticks).encode())
+    return digest.hexdigest()
+
+
+class SeededVectorEnv:
+    """A backend plus the main-process bookkeeping that makes a run reproducible and resumable
+    (see the module docstring): episode seeds, the current points and the options since reset.
+
+    Learners drive it with :meth:`step`; it knows nothing of any learning algorithm.
+    """
+
+    def __init__(
+        self,
+        config: EnvConfig,
+        *,
+        num_envs: int,
+        seed: int,
+        backend: str = "local",
+        num_workers: int = 0,
+    ) -> None:
+        if num_envs < 1:
+            raise ValueError(f"num_envs must be >= 1, got {num_envs}")
+        if backend not in BACKENDS:
+            raise ValueError(f"unknown backend {backend!r}; known: {sorted(BACKENDS)}")
+        self.num_envs = num_envs
+        self.seed = seed
+        self.backend: VectorEnv = BACKENDS[backend](config, num_envs, seed, num_workers)
+        self.spec: EnvSpec = self.backend.spec()
+        self.episode = [0] * num_envs
+        self.actions: list[list[np.ndarray]] = [[] for _ in range(num_envs)]
+        self.points: list[DecisionPoint] = []
+
+    def reset(self) -> None:
+        """Start episode 0 of every environment."""
+        self.episode = [0] * self.num_envs
+        self.actions = [[] for _ in range(self.num_envs)]
+        self.points = self.backend.reset(
+            [episode_seed(self.seed, e, 0) for e in range(self.num_envs)]
+        )
+
+    def step(self, joints: np.ndarray) -> list[StepResult]:
+        """Apply one joint option per environment (``int64 [E, N]``), in lockstep.
+
+        An environment whose episode ends is reset with its next episode seed at once; the
+        result's ``final`` then holds the episode's last point. The returned points become
+        :attr:`points`, and the options are logged for :meth:`state_dict`.
+        """
+        if not self.points:
+            raise RuntimeError("call reset() or load_state_dict() before step()")
+        next_seeds = [episode_seed(self.seed, e, j + 1) for e, j in enumerate(self.episode)]
+        results = self.backend.step(joints, next_seeds)
+        for e, result in enumerate(results):
+            if result.final is not None:
+                self.episode[e] += 1
+                self.actions[e] = []
+            else:
+                self.actions[e].append(joints[e].copy())
+        self.points = [r.point for r in results]
+        return results
+
+    def state_dict(self) -> dict[str, Any]:
+        """Episode counters and the joint options of each current episode (checkpoint-safe)."""
+        n = self.spec.num_agents
+        return {
+            "episode": list(self.episode),
+            "actions": [
+                torch.from_numpy(np.asarray(a, dtype=np.int64).reshape(-1, n)) for a in self.actions
+            ],
+            "digest": [_digest(p) for p in self.points],
+        }
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        """Rebuild every environment's current episode by replaying its recorded options."""
+        if len(state["episode"]) != self.num_envs:
+            raise ValueError(
+                f"state holds {len(state['episode'])} environments, this has {self.num_envs}"
+            )
+        self.episode = [int(j) for j in state["episode"]]
+        self.actions = [list(a.numpy()) for a in state["actions"]]
+        seeds = [episode_seed(self.seed, e, j) for e, j in enumerate(self.episode)]
+        self.points = self.backend.replay(seeds, self.actions)
+        got = [_digest(p) for p in self.points]
+        if got != list(state["digest"]):
+            bad = [e for e, (a, b) in enumerate(zip(got, state["digest"], strict=True)) if a != b]
+            raise RuntimeError(
+                f"replaying the saved options of environments {bad} did not reproduce their "
+                "saved decision points: the environment is not deterministic given its seed "
+                "and actions (or the task changed since the checkpoint)"
+            )
+
+    def close(self) -> None:
+        self.backend.close()

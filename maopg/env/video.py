@@ -1,0 +1,303 @@
+"""Headless rollout videos: the overview camera, every robot's camera, and what is going on.
+
+One frame per **tick** (low-level step), composed as::
+
+    +----------------------------+-----------------+
+    |  overview camera (480x640) |  tick, return,  |
+    |                            |  last reward,   |
+    |                            |  task state,    |
+    |                            |  observations   |
+    +---------+---------+--------+-----------------+
+    | robot 0: option | robot 1: option | ...      |   <- caption: agent and current option
+    | camera (upscaled observation)  ...           |
+    +----------------------------------------------+
+
+The robots' tiles show each camera at the observation resolution (``task.config.image_size``)
+upscaled with nearest-neighbour, i.e. exactly the pixels an image-based policy sees; a caption
+turns yellow on the tick an agent starts a new option. The panel's task state comes from the
+task's registered ``state_lines`` (:func:`~maopg.tasks.text.generic_state_lines` otherwise); under
+it, each agent's observation at the last decision point, by the fields of its named layout.
+
+The option environment only returns at decision points, so per-tick frames come from its tick
+listener (:meth:`OptionEnv.add_tick_listener`), registered for the episode and removed after.
+Everything is deterministic given the seed: physics, policy (if seeded) and rendering.
+``python -m eval video`` records one from a checkpoint or a reference policy.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from PIL import Image, ImageDraw, ImageFont
+
+import maopg  # noqa: F401  (sets MUJOCO_GL=egl before mujoco is imported)
+from maopg.env import DecisionPoint, OptionEnv
+from maopg.env.rollout import ReferencePolicy
+from maopg.sim.render import CameraRenderer, VideoRenderer
+from maopg.tasks import ObsLayout, SceneTask, task_entry, task_names
+from maopg.tasks.text import generic_state_lines
+
+OVERVIEW_SIZE = (480, 640)
+"""Height, width of the overview camera frame."""
+PANEL_WIDTH = 320
+TILE = 256
+"""Side of a robot's camera tile: 4x a 64 px observation."""
+CAPTION = 28
+GAP = 8
+BLOCK = 16
+"""H.264 encodes 16x16 macroblocks; frames are padded to multiples so the writer never resizes."""
+
+BACKGROUND = (24, 24, 28)
+TEXT = (235, 235, 235)
+DIM = (150, 150, 160)
+HIGHLIGHT = (255, 214, 64)
+
+
+# ----------------------------------------------------------------------------- task state text
+def state_lines(task_name: str, state: Mapping[str, Any]) -> list[str]:
+    """The panel's lines for ``Task.describe()``: the task's registered ``state_lines``, else
+    :func:`generic_state_lines` (also for a task that is not registered)."""
+    formatter = None
+    if task_name in task_names():
+        formatter = task_entry(task_name).state_lines_fn()
+    return (formatter or generic_state_lines)(state)
+
+
+def observation_lines(
+    name: str, layout: ObsLayout | None, vector: np.ndarray, fits: Callable[[str], bool]
+) -> list[str]:
+    """An agent's latest observation, field by field (``fits`` says whether a line fits).
+
+    Values read to 2 decimals without trailing zeros (``location 0 1 0 0``, ``elapsed 0 0.67``);
+    fields are packed greedily into lines, the first starting with the agent's name.
+    """
+    fields = layout.split(vector) if layout is not None else {"obs": vector}
+    parts = [f"{field} {_format_field(values)}" for field, values in fields.items()]
+    lines = [f"{name}:"]
+    for part in parts:
+        joined = f"{lines[-1]} {part}"
+        if fits(joined) or lines[-1].endswith(":"):
+            lines[-1] = joined
+        else:
+            lines.append(f"  {part}")
+    return lines
+
+
+def _format_field(values: np.ndarray) -> str:
+    return " ".join(_short(float(v)) for v in values)
+
+
+def _short(value: float) -> str:
+    text = f"{value:.2f}".rstrip("0").rstrip(".")
+    return "0" if text == "-0" else text
+
+
+# ----------------------------------------------------------------------------- composition
+@dataclass(frozen=True)
+class Overlay:
+    """What is written on one frame."""
+
+    tick: int
+    ret: float
+    """Episode return so far (sum of the tick rewards up to and including this frame's tick)."""
+    reward: float | None
+    """Reward of this frame's tick alone (``None`` on the reset frame, before any tick)."""
+    options: Sequence[str]
+    """Option every agent executes ("-" before the first choice, "idle" while a finished agent
+    waits for the others under sync-wait)."""
+    started: Sequence[bool]
+    """Agents that started their option on this frame's tick (drawn highlighted)."""
+    state: Sequence[str]
+    """Task state lines."""
+    vectors: Sequence[np.ndarray] = ()
+    """Each agent's latest observation vector (what its policy last saw), listed by field under
+    the state lines; empty: none shown."""
+
+
+class FrameComposer:
+    """Renders and composes one video frame of a scene task (see the module docstring)."""
+
+    def __init__(
+        self,
+        task: SceneTask,
+        agent_names: Sequence[str],
+        *,
+        layouts: Sequence[ObsLayout | None] | None = None,
+        title: str = "",
+        max_ticks: int | None = None,
+        camera_px: int | None = None,
+    ) -> None:
+        self.task = task
+        self.agent_names = tuple(agent_names)
+        self.layouts = tuple(layouts) if layouts is not None else (None,) * len(self.agent_names)
+        self.title = title
+        self.max_ticks = max_ticks
+        n = len(self.agent_names)
+        oh, ow = OVERVIEW_SIZE
+        self.width = _round_up(max(ow + PANEL_WIDTH, n * TILE + (n - 1) * GAP), BLOCK)
+        self.height = _round_up(oh + GAP + CAPTION + TILE, BLOCK)
+        px = camera_px or task.config.image_size
+        self._overview = VideoRenderer(task.scene.model, oh, ow, camera="overview")
+        self._cameras = CameraRenderer(task.scene.model, px, px)
+        self._camera_ids = [robot.camera_id for robot in task.agent_robots]
+        self._camera_buf = np.empty((n, px, px, 3), np.uint8)
+        self._font = ImageFont.load_default(size=18)
+        self._small = ImageFont.load_default(size=15)
+
+    @property
+    def shape(self) -> tuple[int, int, int]:
+        return (self.height, self.width, 3)
+
+    def compose(self, overlay: Overlay) -> np.ndarray:
+        """Render the current simulation state and draw ``overlay``: uint8 ``[H, W, 3]``."""
+        data = self.task.scene.data
+        canvas = Image.new("RGB", (self.width, self.height), BACKGROUND)
+        canvas.paste(Image.fromarray(self._overview.frame(data)), (0, 0))
+        self._cameras.render(data, self._camera_ids, out=self._camera_buf)
+        draw = ImageDraw.Draw(canvas)
+        self._draw_panel(draw, overlay)
+
+        n = len(self.agent_names)
+        row_width = n * TILE + (n - 1) * GAP
+        x0 = (self.width - row_width) // 2
+        y_caption = OVERVIEW_SIZE[0] + GAP
+        for i, name in enumerate(self.agent_names):
+            x = x0 + i * (TILE + GAP)
+            colour = HIGHLIGHT if overlay.started[i] else TEXT
+            caption = f"{name}: {overlay.options[i]}"
+            draw.text((x + 2, y_caption + 4), caption, fill=colour, font=self._small)
+            tile = Image.fromarray(self._camera_buf[i]).resize((TILE, TILE), Image.NEAREST)
+            canvas.paste(tile, (x, y_caption + CAPTION))
+        return np.asarray(canvas)
+
+    def _draw_panel(self, draw: ImageDraw.ImageDraw, overlay: Overlay) -> None:
+        x, y = OVERVIEW_SIZE[1] + 12, 12
+        limit = f" / {self.max_ticks}" if self.max_ticks else ""
+        head = [(self.title, DIM), (f"tick {overlay.tick}{limit}", TEXT)]
+        head.append((f"return {overlay.ret:+.1f}", TEXT))
+        last = "-" if overlay.reward is None else f"{overlay.reward:+.1f}"
+        head.append((f"reward {last} (last tick)", TEXT))
+        for text, colour in head:
+            draw.text((x, y), text, fill=colour, font=self._font)
+            y += 26
+        y += 8
+        for line in overlay.state:
+            draw.text((x, y), line, fill=TEXT, font=self._small)
+            y += 21
+        y += 8
+
+        def fits(text: str) -> bool:
+            return draw.textlength(text, font=self._small) <= PANEL_WIDTH - 24
+
+        for name, layout, vector in zip(
+            self.agent_names, self.layouts, overlay.vectors, strict=False
+        ):
+            for line in observation_lines(name, layout, vector, fits):
+                if y > OVERVIEW_SIZE[0] - 21:
+                    return  # the panel is full
+                draw.text((x, y), line, fill=DIM, font=self._small)
+                y += 21
+
+    def close(self) -> None:
+        self._overview.close()
+        self._cameras.close()
+
+
+def _round_up(value: int, block: int) -> int:
+    return -(-value // block) * block
+
+
+# ----------------------------------------------------------------------------- recording
+@dataclass
+class RecordedEpisode:
+    """What :func:`record_episode` wrote."""
+
+    path: Path
+    frames: int
+    shape: tuple[int, int, int]
+    ret: float
+    ticks: int
+    solved: bool
+
+
+def record_episode(
+    env: OptionEnv,
+    policy: ReferencePolicy,
+    path: str | Path,
+    *,
+    seed: int = 0,
+    fps: int = 4,
+    camera_px: int | None = None,
+) -> RecordedEpisode:
+    """Play one episode of ``env``'s task with ``policy`` and write it to ``path`` (MP4).
+
+    One frame at reset and one after every tick, so ``frames == ticks + 1``. ``policy`` maps a
+    :class:`DecisionPoint` to a joint option (a reference policy or :class:`eval` 's adapter
+    of a trained network). The task must be a :class:`SceneTask` with an ``overview`` camera.
+    """
+    import imageio.v2 as imageio
+
+    task = env.task
+    if not isinstance(task, SceneTask):
+        raise ValueError(f"task {task.name!r} has no scene to render (not a SceneTask)")
+    names = env.spec.agent_names
+    n = len(names)
+    composer = FrameComposer(
+        task,
+        names,
+        layouts=[agent.layout for agent in env.spec.agents],
+        title=f"{task.name} | {env.strategy.value} | seed {seed}",
+        max_ticks=env.spec.max_ticks,
+        camera_px=camera_px,
+    )
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    options = ["-"] * n
+    started = np.zeros(n, dtype=bool)
+    total = [0.0]
+    seen: list[Sequence[np.ndarray]] = [()]  # the observations at the last decision point
+    writer = imageio.get_writer(path, fps=fps, codec="libx264", macro_block_size=BLOCK)
+    frames = [0]
+
+    def write(tick: int, reward: float | None) -> None:
+        overlay = Overlay(
+            tick=tick,
+            ret=total[0],
+            reward=reward,
+            options=list(options),
+            started=started.tolist(),
+            state=state_lines(task.name, task.describe()),
+            vectors=seen[0],
+        )
+        writer.append_data(composer.compose(overlay))
+        frames[0] += 1
+
+    def on_tick(tick_env: OptionEnv, reward: float) -> None:
+        # what executes now: a finished agent waiting for the others under sync-wait is "idle"
+        options[:] = tick_env.running_option_names()
+        total[0] += reward
+        write(task.ticks, reward)
+        started[:] = False
+
+    env.add_tick_listener(on_tick)
+    try:
+        point: DecisionPoint = env.reset(seed=seed)
+        seen[0] = point.vectors
+        write(0, None)
+        while not point.done:
+            seen[0] = point.vectors
+            joint = np.asarray(policy(point))
+            started[:] = point.choosing
+            point = env.step(joint)
+    finally:
+        env.remove_tick_listener(on_tick)
+        writer.close()
+        composer.close()
+    episode = point.info["episode"]
+    return RecordedEpisode(
+        path, frames[0], composer.shape, episode["return"], episode["ticks"], episode["solved"]
+    )

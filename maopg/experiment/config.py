@@ -1,0 +1,308 @@
+"""The training configuration: the run's fields plus its method's config section, resolved once
+and saved as JSON in the run directory.
+
+The run's fields (task, seed, budget, observations, environments, network size, discount,
+checkpoints) are top-level; the learner's hyper-parameters form the section its method names
+(``ppo`` for MAPPO, ``dqn`` for Mac-DQN, or a user learner's own). Command-line ``key=value``
+overrides address fields by name (``num_envs=8``), ``SECTION.NAME=VALUE`` the section
+(``ppo.epochs=5``, ``dqn.lr=1e-3``) and ``env.NAME=VALUE`` the task's settings
+(``env.max_ticks=100``). Fields left ``None`` take per-task defaults (declared by the task at
+registration) in :meth:`TrainConfig.resolved`.
+
+MAPPO's hyper-parameters used to be flat fields (``epochs=5``): the flat keys stay accepted for
+one release, with a deprecation message, and run directories written then load unchanged.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import sys
+import types
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Union, get_args, get_origin, get_type_hints
+
+from maopg.env.vector import BACKENDS, EnvConfig
+from maopg.experiment.methods import get_method, section_classes
+from maopg.learner.mappo import PPOConfig
+from maopg.tasks import task_entry
+
+GENERIC_DEFAULTS: dict[str, Any] = {"batch_ticks": 1000, "total_samples": 100_000, "images": False}
+"""For a task that declares no training defaults of its own (``register_task``)."""
+
+LEGACY_FLAT_KEYS = frozenset(f.name for f in dataclasses.fields(PPOConfig))
+"""MAPPO's hyper-parameters as the flat fields they were before the ``ppo`` section."""
+
+
+@dataclass
+class TrainConfig:
+    """Everything a training run depends on. A resolved config fully determines the run."""
+
+    task: str = "tool_delivery"
+    method: str = "async"
+    seed: int = 0
+    total_samples: int | None = None
+    """Low-level ticks to train for (per-task default)."""
+    batch_ticks: int | None = None
+    """Low-level ticks per iteration (paper: TD 200, WF 2000)."""
+    images: bool | None = None
+    """RGB camera observations (per-task default: WF yes, TD no)."""
+    image_size: int = 64
+    num_envs: int = 4
+    backend: str | None = None
+    """Where the environments run: ``local`` (this process) or ``processes`` (``spawn``
+    workers); default ``processes`` when ``num_workers`` > 1, else ``local``."""
+    num_workers: int = 0
+    """Worker processes of the ``processes`` backend."""
+    gamma: float = 0.99
+    """Discount per tick (it also discounts the environment's rewards)."""
+    hidden: int = 128
+    """Width of the encoders' MLP layers (actor, critic, Q-network)."""
+    layers: int = 2
+    """Depth of the encoders' MLPs."""
+    checkpoint_every: int = 10
+    """Iterations between checkpoints (one is also written at the end)."""
+    torch_threads: int = 1
+    """``torch.set_num_threads`` (0 = torch's default). One thread is fastest for the small
+    state-vector networks and avoids oversubscribing the cores the environments use."""
+    progress: bool = True
+    video: bool = True
+    """Record a rollout of the trained policy (seed 0) to ``rollout.mp4`` at the end
+    (~45 s on Water Filling; ``video=false`` skips it, as the reproduction grid does)."""
+    video_sample: bool = True
+    """Sample the video's options from the policy, as in training (Mac-DQN: ε-greedy at its
+    final ε); ``false`` takes the greedy option. The greedy policy can loop where the stochastic
+    one does not: on Water Filling always, on Tool Delivery after a short budget
+    (results/README.md, Water Filling finding 6)."""
+    run_dir: str | None = None
+    """Default: ``runs/<task>/<method>/seed<seed>``."""
+    env_overrides: dict[str, Any] = field(default_factory=dict)
+    learner: Any = None
+    """The method's config section (an instance of its learner's ``Config``; ``None`` = its
+    defaults). Saved under the section's name (``"ppo": {...}``)."""
+
+    # ------------------------------------------------------------------ derived views
+    @property
+    def strategy(self) -> str:
+        return str(get_method(self.method).strategy)
+
+    @property
+    def section(self) -> str:
+        return get_method(self.method).section
+
+    def resolved(self) -> TrainConfig:
+        """A copy with every ``None`` replaced by its default, validated (``ValueError``)."""
+        method = get_method(self.method)
+        defaults = {**GENERIC_DEFAULTS, **task_entry(self.task).train_defaults}
+        cfg = dataclasses.replace(self, env_overrides=dict(self.env_overrides))
+        for key in ("total_samples", "batch_ticks", "images"):
+            if getattr(cfg, key) is None:
+                setattr(cfg, key, defaults[key])
+        if cfg.learner is None:
+            cfg.learner = method.config_class()
+        elif not isinstance(cfg.learner, method.config_class):
+            raise ValueError(
+                f"method {cfg.method!r} takes a {method.config_class.__name__} section, "
+                f"got {type(cfg.learner).__name__}"
+            )
+        if cfg.backend is None:
+            cfg.backend = "processes" if cfg.num_workers > 1 else "local"
+        if cfg.run_dir is None:
+            cfg.run_dir = str(Path("runs") / cfg.task / cfg.method / f"seed{cfg.seed}")
+        for key in ("total_samples", "batch_ticks", "num_envs", "checkpoint_every", "hidden"):
+            if getattr(cfg, key) < 1:
+                raise ValueError(f"{key} must be >= 1, got {getattr(cfg, key)}")
+        if cfg.backend not in BACKENDS:
+            raise ValueError(f"backend must be one of {sorted(BACKENDS)}, got {cfg.backend!r}")
+        if cfg.backend == "processes" and cfg.num_workers < 1:
+            raise ValueError("backend=processes needs num_workers >= 1")
+        if not 0.0 <= cfg.gamma <= 1.0:
+            raise ValueError(f"gamma must lie in [0, 1], got {cfg.gamma}")
+        cfg.learner.validate()
+        return cfg
+
+    def env(self) -> EnvConfig:
+        return EnvConfig(
+            task=self.task,
+            strategy=self.strategy,
+            images=bool(self.images),
+            image_size=self.image_size,
+            gamma=self.gamma,
+            overrides=dict(self.env_overrides),
+        )
+
+    # ------------------------------------------------------------------ (de)serialisation
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready: the run's fields and the section under its name."""
+        values = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+        section = values.pop("learner")
+        if section is None:
+            section = get_method(self.method).config_class()
+        values["env_overrides"] = dict(self.env_overrides)
+        values[self.section] = dataclasses.asdict(section)
+        return values
+
+    def flat(self) -> dict[str, Any]:
+        """:meth:`to_dict` with section fields named as on the command line (``ppo.lr``)."""
+        flat = self.to_dict()
+        section = flat.pop(self.section)
+        flat.update({f"{self.section}.{name}": v for name, v in section.items()})
+        return flat
+
+    @staticmethod
+    def from_dict(data: dict[str, Any]) -> TrainConfig:
+        """Inverse of :meth:`to_dict`; also reads configs saved before sections existed (flat
+        MAPPO keys, and a ``dqn`` section in every method's config)."""
+        values = dict(data)
+        method = get_method(values.get("method", TrainConfig.method))
+        own = method.section
+        legacy = {k: values.pop(k) for k in list(values) if k in LEGACY_FLAT_KEYS}
+        if legacy:
+            for other in set(section_classes()) - {own}:
+                values.pop(other, None)
+            if own == "ppo":
+                values["ppo"] = {**legacy, **values.get("ppo", {})}
+        foreign = sorted(set(section_classes()) & set(values) - {own})
+        if foreign:
+            raise ValueError(
+                f"config section(s) {foreign} do not belong to method {method.name!r} "
+                f"(its section is {own!r})"
+            )
+        section = values.pop(own, None)
+        config = _build(TrainConfig, values, "")
+        if section is not None:
+            config.learner = _build(method.config_class, section, f"{own}.")
+        return config
+
+    def save(self, path: Path) -> None:
+        path.write_text(json.dumps(self.to_dict(), indent=2, sort_keys=True) + "\n")
+
+    @staticmethod
+    def load(path: Path) -> TrainConfig:
+        try:
+            data = json.loads(path.read_text())
+        except json.JSONDecodeError as err:
+            raise ValueError(f"{path} is not valid JSON: {err}") from None
+        return TrainConfig.from_dict(data)
+
+
+def _build(cls: type, data: dict[str, Any], prefix: str) -> Any:
+    names = {f.name for f in dataclasses.fields(cls)} - {"learner"}
+    unknown = sorted(set(data) - names)
+    if unknown:
+        raise ValueError(f"unknown config keys {[prefix + k for k in unknown]}")
+    return cls(**data)
+
+
+def merge(base: dict[str, Any], values: dict[str, Any]) -> dict[str, Any]:
+    """``base`` (a :meth:`TrainConfig.to_dict`) updated by ``values`` (from
+    :func:`parse_overrides`); sections and ``env_overrides`` are updated key by key."""
+    merged = dict(base)
+    for key, value in values.items():
+        if isinstance(value, dict) and isinstance(merged.get(key), dict):
+            merged[key] = {**merged[key], **value}
+        else:
+            merged[key] = value
+    return merged
+
+
+def _parse_value(text: str, annotation: Any, key: str) -> Any:
+    """Parse ``text`` as the field type ``annotation`` (``int | None``, ``bool``, ...)."""
+    options = get_args(annotation) if get_origin(annotation) in (Union, types.UnionType) else ()
+    if options:
+        if text.lower() in ("none", "null") and type(None) in options:
+            return None
+        annotation = next(t for t in options if t is not type(None))
+    if annotation is bool:
+        lowered = text.lower()
+        if lowered in ("1", "true", "yes", "on"):
+            return True
+        if lowered in ("0", "false", "no", "off"):
+            return False
+        raise ValueError(f"{key}: expected a boolean, got {text!r}")
+    try:
+        if annotation is int:
+            return int(text.replace("_", ""))
+        if annotation is float:
+            return float(text)
+    except ValueError:
+        raise ValueError(f"{key}: expected {annotation.__name__}, got {text!r}") from None
+    return text
+
+
+def split_assignment(item: str) -> tuple[str, str]:
+    """``"key=value"`` → ``("key", "value")``; anything else is a :class:`ValueError`."""
+    key, sep, text = item.partition("=")
+    if not sep or not key:
+        raise ValueError(f"{item!r} is not of the form key=value")
+    return key, text
+
+
+def parse_task_settings(items: list[str]) -> dict[str, Any]:
+    """``["max_ticks=100", "turtlebot_robot=diffbot"]`` → task config overrides, values parsed
+    as JSON where they are JSON (numbers, booleans, lists), else kept as strings."""
+    settings: dict[str, Any] = {}
+    for item in items:
+        key, text = split_assignment(item)
+        try:
+            settings[key] = json.loads(text)
+        except json.JSONDecodeError:
+            settings[key] = text
+    return settings
+
+
+def parse_overrides(items: list[str], method: str) -> dict[str, Any]:
+    """``["num_envs=8", "ppo.epochs=5", "env.max_ticks=100"]`` for a run of ``method`` → typed
+    values for :func:`merge` (``{"num_envs": 8, "ppo": {"epochs": 5}, "env_overrides":
+    {"max_ticks": 100}}``). The only section accepted is the method's own; a flat MAPPO key
+    (``epochs=5``) is read as ``ppo.epochs=5`` with a deprecation message on stderr."""
+    own = get_method(method).section
+    sections = section_classes()
+    values: dict[str, Any] = {}
+    for item in items:
+        key, text = split_assignment(item)
+        section, dot, name = key.partition(".")
+        if not dot and key in LEGACY_FLAT_KEYS and key not in _run_fields():
+            if own != "ppo":
+                raise ValueError(f"{key!r} is a MAPPO hyper-parameter; method {method!r} has none")
+            print(
+                f"warning: {key}={text} is deprecated and will be removed in the next release; "
+                f"write ppo.{key}={text}",
+                file=sys.stderr,
+            )
+            section, name, dot = "ppo", key, "."
+        if not dot:
+            values[key] = _parse_field(TrainConfig, key, text, "")
+        elif section == "env":
+            values.setdefault("env_overrides", {}).update(parse_task_settings([f"{name}={text}"]))
+        elif section == own:
+            values.setdefault(section, {})[name] = _parse_field(
+                sections[section], name, text, f"{section}."
+            )
+        elif section in sections:
+            raise ValueError(
+                f"{item!r}: method {method!r} reads the {own!r} section, not {section!r}"
+            )
+        else:
+            known = sorted({own, "env"})
+            raise ValueError(f"unknown config section {section!r} in {item!r}; known: {known}")
+    return values
+
+
+def _run_fields() -> list[str]:
+    return sorted(
+        f.name
+        for f in dataclasses.fields(TrainConfig)
+        if f.name not in ("env_overrides", "learner")
+    )
+
+
+def _parse_field(cls: type, name: str, text: str, prefix: str) -> Any:
+    hints = get_type_hints(cls)
+    fields = (
+        _run_fields() if cls is TrainConfig else sorted(f.name for f in dataclasses.fields(cls))
+    )
+    if name not in fields:
+        raise ValueError(f"unknown config key {prefix + name!r}; known: {fields}")
+    return _parse_value(text, hints[name], prefix + name)

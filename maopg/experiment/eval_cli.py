@@ -1,0 +1,275 @@
+"""Command line: ``python -m eval evaluate|video|plot|table|reproduce ...`` (``maopg-eval``
+once installed).
+
+python -m eval evaluate --checkpoint runs/tool_delivery/async/seed0 --episodes 20
+python -m eval evaluate --reference scripted --task tool_delivery --episodes 10
+python -m eval evaluate --reference scripted --task tool_delivery --set turtlebot_robot=diffbot
+python -m eval video --checkpoint runs/tool_delivery/async/seed0 --out out/td_async.mp4
+python -m eval plot runs/ --out out/plots
+python -m eval table runs/ --threshold tool_delivery=200
+python -m eval reproduce              # the committed grid: results/runs → results/
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import maopg  # noqa: F401  (sets MUJOCO_GL=egl before anything imports mujoco)
+from maopg.env.rollout import REFERENCE_POLICIES
+
+
+def _policy_args(parser: argparse.ArgumentParser) -> None:
+    source = parser.add_mutually_exclusive_group(required=True)
+    source.add_argument("--checkpoint", type=Path, help="checkpoint file or run directory")
+    source.add_argument("--reference", choices=REFERENCE_POLICIES, help="reference policy")
+    parser.add_argument("--task", help="task of a reference policy (default tool_delivery)")
+    parser.add_argument("--strategy", help="strategy of a reference policy (default continue)")
+    parser.add_argument(
+        "--set",
+        nargs="*",
+        default=[],
+        metavar="KEY=VALUE",
+        help="task settings of a reference policy's environment, e.g. turtlebot_robot=diffbot",
+    )
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument(
+        "--sample",
+        action="store_true",
+        help="sample options instead of the greedy mode (Mac-DQN: ε-greedy at its final ε)",
+    )
+
+
+def _policy_and_env(args: argparse.Namespace):
+    """``(label, env, policy)`` for a checkpoint or a reference policy."""
+    from maopg.env import make_env
+    from maopg.env.rollout import reference_policy
+    from maopg.experiment.config import parse_task_settings
+
+    if args.checkpoint is not None:
+        from maopg.experiment.loading import load_trained
+
+        given = [f"--{k}" for k in ("task", "strategy", "set") if getattr(args, k)]
+        if given:
+            raise SystemExit(
+                f"{', '.join(given)}: a checkpoint brings its own task and strategy "
+                "(they apply to --reference policies only)"
+            )
+        trained = load_trained(args.checkpoint)
+        env = trained.make_env(args.seed)
+        policy = trained.actor(greedy=not args.sample, seed=args.seed)
+        c = trained.config
+        label = f"{c.method} seed{c.seed} @ {trained.samples} samples"
+        return label, env, policy
+    task = args.task or "tool_delivery"
+    try:
+        settings = parse_task_settings(args.set)
+    except ValueError as err:
+        raise SystemExit(f"--set: {err}") from None
+    env = make_env(task, args.strategy or "continue", seed=args.seed, overrides=settings)
+    return args.reference, env, reference_policy(args.reference, env, args.seed)
+
+
+def _thresholds(items: list[str]) -> dict[str, float]:
+    from maopg.experiment.config import split_assignment
+
+    out = {}
+    for item in items:
+        try:
+            task, value = split_assignment(item)
+            out[task] = float(value)
+        except ValueError as err:
+            raise SystemExit(f"--threshold expects TASK=VALUE: {err}") from None
+    return out
+
+
+def cmd_evaluate(args: argparse.Namespace) -> int:
+    from maopg.experiment.evaluate import choices_lines, evaluate, results_table, write_result
+
+    label, env, policy = _policy_and_env(args)
+    try:
+        result = evaluate(env, policy, args.episodes, seed=args.seed, label=label)
+    finally:
+        env.close()
+    print(results_table([result.summary]), end="")
+    print("\n".join(["options chosen:", *choices_lines(result)]))
+    if args.json:
+        print(f"wrote {write_result(result, args.json)}")
+    return 0
+
+
+def cmd_video(args: argparse.Namespace) -> int:
+    from maopg.env.video import record_episode
+
+    _, env, policy = _policy_and_env(args)
+    try:
+        video = record_episode(env, policy, args.out, seed=args.seed, fps=args.fps)
+    finally:
+        env.close()
+    print(
+        f"{video.path}: {video.frames} frames {video.shape[1]}x{video.shape[0]}, "
+        f"return {video.ret:.1f} in {video.ticks} ticks, solved {video.solved}"
+    )
+    return 0
+
+
+def _which(args: argparse.Namespace) -> str:
+    if args.unfinished:
+        return "(config.json + metrics.csv)"
+    return "finished (config.json + metrics.csv + done.json; --unfinished for runs in progress)"
+
+
+def cmd_plot(args: argparse.Namespace) -> int:
+    from maopg.experiment.plots import plot_all
+    from maopg.experiment.runs import discover_runs
+
+    runs = discover_runs(args.runs, unfinished=args.unfinished)
+    if not runs:
+        raise SystemExit(f"no {_which(args)} run directories under {args.runs}")
+    for path in plot_all(
+        runs, args.out, metric=args.metric, window=args.window, methods=args.methods
+    ):
+        print(f"wrote {path}")
+    return 0
+
+
+def cmd_table(args: argparse.Namespace) -> int:
+    from maopg.experiment.runs import discover_runs
+    from maopg.experiment.tables import peak_table, threshold_table
+
+    runs = discover_runs(args.runs, unfinished=args.unfinished)
+    if not runs:
+        raise SystemExit(f"no {_which(args)} run directories under {args.runs}")
+    thresholds = _thresholds(args.threshold)
+    text = (
+        "## Peak performance\n\n"
+        + peak_table(runs, window=args.window, methods=args.methods)
+        + "\n## Samples to threshold\n\n"
+        + threshold_table(runs, thresholds, window=args.window, methods=args.methods)
+    )
+    print(text, end="")
+    if args.out:
+        args.out.parent.mkdir(parents=True, exist_ok=True)
+        args.out.write_text(text)
+        print(f"wrote {args.out}")
+    return 0
+
+
+def cmd_reproduce(args: argparse.Namespace) -> int:
+    from maopg.experiment.reproduce import reproduce
+
+    outcomes, written = reproduce(
+        args.runs,
+        args.results,
+        thresholds=_thresholds(args.threshold),
+        window=args.window,
+        train=not args.no_train,
+        eval_episodes=args.eval_episodes,
+        reference_episodes=args.reference_episodes,
+        tasks=args.tasks,
+        methods=args.methods,
+        seeds=args.seeds,
+        overrides=args.set,
+        in_process=args.in_process,
+        dry_run=args.dry_run,
+    )
+    for path in written:
+        print(f"wrote {path}")
+    failed = [c for c, o in outcomes.items() if o.startswith("failed")]
+    counts: dict[str, int] = {}
+    for outcome in outcomes.values():
+        key = outcome.split(":")[0]
+        counts[key] = counts.get(key, 0) + 1
+    print("grid: " + ", ".join(f"{n} {k}" for k, n in sorted(counts.items())))
+    return 1 if failed else 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from maopg.experiment.methods import method_names
+    from maopg.tasks import task_entry, task_names
+
+    parser = argparse.ArgumentParser(prog="python -m eval", description=__doc__.split("\n")[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    p = sub.add_parser("evaluate", help="mean ± std return etc. over N seeded episodes")
+    _policy_args(p)
+    p.add_argument("--episodes", type=int, default=20)
+    p.add_argument("--json", type=Path, help="also write the result as JSON here")
+    p.set_defaults(func=cmd_evaluate)
+
+    p = sub.add_parser("video", help="record one episode as a headless MP4")
+    _policy_args(p)
+    p.add_argument("--out", type=Path, required=True)
+    p.add_argument("--fps", type=int, default=4)
+    p.set_defaults(func=cmd_video)
+
+    for name, func, text in (
+        ("plot", cmd_plot, "learning curves (PNG + SVG) per task from run directories"),
+        ("table", cmd_table, "Markdown peak / samples-to-threshold tables from run directories"),
+    ):
+        p = sub.add_parser(name, help=text)
+        p.add_argument("runs", nargs="+", type=Path, help="run directories or their roots")
+        p.add_argument("--window", type=int, default=5, help="moving-mean window (iterations)")
+        p.add_argument("--methods", nargs="+", help="only these methods, in this order")
+        p.add_argument("--unfinished", action="store_true", help="include runs still in progress")
+        p.set_defaults(func=func)
+        if name == "plot":
+            p.add_argument("--out", type=Path, default=Path("results"))
+            p.add_argument(
+                "--metric",
+                default="episode_return",
+                choices=("episode_return", "option_step_reward"),
+            )
+        else:
+            p.add_argument("--threshold", nargs="*", default=[], metavar="TASK=VALUE")
+            p.add_argument("--out", type=Path, help="also write the Markdown here")
+
+    p = sub.add_parser("reproduce", help="resumable methods × tasks × seeds grid, then results")
+    p.add_argument("--runs", type=Path, default=Path("results/runs"))
+    p.add_argument("--results", type=Path, default=Path("results"))
+    p.add_argument("--tasks", nargs="+", default=task_names(), choices=task_names())
+    p.add_argument("--methods", nargs="+", default=method_names(), choices=method_names())
+    p.add_argument(
+        "--seeds",
+        nargs="+",
+        type=int,
+        help="for every task (default: "
+        + ", ".join(f"{t} {len(task_entry(t).grid_seeds)} seeds" for t in task_names())
+        + ")",
+    )
+    p.add_argument(
+        "--set",
+        nargs="*",
+        default=[],
+        metavar="KEY=VALUE",
+        help="train config overrides for every run (keep them identical across resumptions)",
+    )
+    p.add_argument("--threshold", nargs="*", default=[], metavar="TASK=VALUE")
+    p.add_argument("--window", type=int, default=5)
+    p.add_argument(
+        "--eval-episodes",
+        type=int,
+        default=10,
+        help="episodes per trained policy in evaluation.md (0: skip evaluation.md)",
+    )
+    p.add_argument(
+        "--reference-episodes",
+        type=int,
+        default=100,
+        help="episodes per reference policy in evaluation.md",
+    )
+    p.add_argument("--in-process", action="store_true", help="train in this process")
+    p.add_argument("--dry-run", action="store_true", help="list what would run; train nothing")
+    p.add_argument("--no-train", action="store_true", help="only regenerate figures and tables")
+    p.set_defaults(func=cmd_reproduce)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    return args.func(args)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

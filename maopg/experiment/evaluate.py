@@ -1,0 +1,121 @@
+"""Evaluate a policy over N seeded episodes: return, success, length, and the paper's metric.
+
+The honest metric is the mean episode **return** (sum of tick rewards over an episode). The
+paper's Tool Delivery numbers are the mean **option-step reward** (the summed reward of one
+decision step, averaged over the steps of a batch); it is reported beside the return, in its
+own field, and the two must never be compared with each other.
+"""
+
+from __future__ import annotations
+
+import json
+from collections import Counter
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from maopg.env import DecisionPoint, OptionEnv
+from maopg.env.rollout import ReferencePolicy, run_episode
+
+
+@dataclass
+class EvalResult:
+    """Per-episode outcomes and their summaries."""
+
+    label: str
+    task: str
+    strategy: str
+    seed: int
+    returns: list[float]
+    lengths: list[int]
+    solved: list[bool]
+    option_step_rewards: list[float] = field(repr=False)
+    """Summed reward of every decision step of every episode."""
+    choices: dict[str, dict[str, int]] = field(default_factory=dict, repr=False)
+    """Agent → option name → how often the agent chose it, over all episodes: shows a policy
+    that is stuck repeating one option, which a return alone does not."""
+
+    @property
+    def summary(self) -> dict[str, Any]:
+        returns = np.asarray(self.returns)
+        lengths = np.asarray(self.lengths)
+        return {
+            "label": self.label,
+            "task": self.task,
+            "strategy": self.strategy,
+            "seed": self.seed,
+            "episodes": len(self.returns),
+            "return_mean": float(returns.mean()),
+            "return_std": float(returns.std()),
+            "success_rate": float(np.mean(self.solved)),
+            "length_mean": float(lengths.mean()),
+            "length_std": float(lengths.std()),
+            "option_step_reward": float(np.mean(self.option_step_rewards)),
+        }
+
+    def to_json(self) -> str:
+        return json.dumps({**self.summary, "per_episode": asdict(self)}, indent=2) + "\n"
+
+
+def evaluate(
+    env: OptionEnv, policy: ReferencePolicy, episodes: int, *, seed: int = 0, label: str = ""
+) -> EvalResult:
+    """Play ``episodes`` episodes; episode ``j`` is reset with seed ``seed + j``."""
+    if episodes < 1:
+        raise ValueError(f"episodes must be >= 1, got {episodes}")
+    agents = env.spec.agents
+    choices: list[Counter[str]] = [Counter() for _ in agents]
+
+    def counted(point: DecisionPoint) -> np.ndarray:
+        joint = np.asarray(policy(point))
+        for i in np.flatnonzero(point.choosing):
+            choices[i][agents[i].option_names[joint[i]]] += 1
+        return joint
+
+    results = [run_episode(env, counted, seed=seed + j) for j in range(episodes)]
+    return EvalResult(
+        label=label,
+        task=env.spec.task,
+        strategy=env.strategy.value,
+        seed=seed,
+        returns=[r.ret for r in results],
+        lengths=[r.ticks for r in results],
+        solved=[r.solved for r in results],
+        option_step_rewards=[x for r in results for x in r.rewards],
+        choices={a.name: dict(c.most_common()) for a, c in zip(agents, choices, strict=True)},
+    )
+
+
+def choices_lines(result: EvalResult, top: int = 4) -> list[str]:
+    """Each agent's most chosen options with their share of its choices."""
+    lines = []
+    for agent, counts in result.choices.items():
+        total = sum(counts.values())
+        common = ", ".join(f"{name} {n / total:.0%}" for name, n in list(counts.items())[:top])
+        lines.append(f"{agent}: {total} choices — {common}")
+    return lines
+
+
+def results_table(summaries: list[dict[str, Any]]) -> str:
+    """Markdown table, one row per evaluated policy (:attr:`EvalResult.summary` dicts)."""
+    header = (
+        "| policy | task | strategy | episodes | return | success | length "
+        "| option-step reward (paper's metric) |\n|---|---|---|---|---|---|---|---|\n"
+    )
+    rows = []
+    for s in summaries:
+        rows.append(
+            f"| {s['label']} | {s['task']} | {s['strategy']} | {s['episodes']} "
+            f"| {s['return_mean']:.1f} ± {s['return_std']:.1f} | {s['success_rate']:.0%} "
+            f"| {s['length_mean']:.1f} ± {s['length_std']:.1f} | {s['option_step_reward']:.2f} |"
+        )
+    return header + "\n".join(rows) + "\n"
+
+
+def write_result(result: EvalResult, path: str | Path) -> Path:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(result.to_json())
+    return path

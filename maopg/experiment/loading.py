@@ -1,0 +1,75 @@
+"""Trained policies for evaluation: load a checkpoint, rebuild its environment and network.
+
+A checkpoint (``final.pt`` or ``checkpoint.pt`` from ``python -m train``) stores the resolved
+training config and the acting network's weights, and the config names the method, whose
+registry entry (:mod:`maopg.experiment.methods`) says how to rebuild that network and how it
+acts — so nothing needs to be given twice, and a user's method loads like a built-in one.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from torch import nn
+
+from maopg.env import OptionEnv
+from maopg.experiment.config import TrainConfig
+from maopg.experiment.methods import Method, get_method
+from maopg.experiment.run_dir import CHECKPOINT, FINAL
+from maopg.learner import Actor, CheckpointError, load_checkpoint
+
+CHECKPOINT_NAMES = (FINAL, CHECKPOINT)
+"""Looked for, in this order, when a run directory is given instead of a file."""
+
+
+@dataclass
+class Trained:
+    """A checkpoint's config and acting network."""
+
+    path: Path
+    config: TrainConfig
+    method: Method
+    policy: nn.Module
+    samples: int
+
+    def make_env(self, seed: int = 0) -> OptionEnv:
+        """The environment the policy was trained on (task, strategy, observations)."""
+        return self.config.env().make(seed)
+
+    def actor(self, *, greedy: bool = True, seed: int = 0) -> Actor:
+        """The trained policy as ``DecisionPoint -> joint option``: the mode (greedy) or a
+        sample seeded with ``seed`` — for Mac-DQN, ε-greedy at its final exploration rate."""
+        return self.method.learner.actor(self.policy, self.config.learner, greedy=greedy, seed=seed)
+
+
+def resolve_checkpoint(path: str | Path) -> Path:
+    """``path`` itself if it is a file, else the first of :data:`CHECKPOINT_NAMES` in it."""
+    path = Path(path)
+    if path.is_file():
+        return path
+    for name in CHECKPOINT_NAMES:
+        if (path / name).is_file():
+            return path / name
+    raise FileNotFoundError(f"{path} is neither a checkpoint file nor a run directory with one")
+
+
+def load_trained(path: str | Path) -> Trained:
+    """Rebuild the policy of a checkpoint (file or run directory) with its weights."""
+    file = resolve_checkpoint(path)
+    state = load_checkpoint(file, required=("config",))
+    config = TrainConfig.from_dict(state["config"]).resolved()
+    method = get_method(config.method)
+    env = config.env().make(0)
+    try:
+        spec = env.spec
+    finally:
+        env.close()
+    policy = method.build_policy(
+        spec, hidden=config.hidden, layers=config.layers, config=config.learner
+    )
+    key = method.learner.policy_key
+    if key not in state:
+        raise CheckpointError(f"checkpoint {file} lacks the entries [{key!r}]")
+    policy.load_state_dict(state[key])
+    return Trained(file, config, method, policy, int(state.get("samples", 0)))

@@ -1,0 +1,94 @@
+"""The method registry: a method's name → its termination strategy, policy builder and learner.
+
+The learner class brings the rest of what a method is — its config section (``ppo.lr=...``),
+its logged columns, its ``final.pt`` entry and how the trained policy acts — so the trainer, the
+loader, the tables and the reproduction grid all read a method from here and nothing else.
+A new method is one module (a :class:`~maopg.learner.Learner`, and a policy builder if its
+network is new) plus one :func:`register_method` line, from anywhere::
+
+    register_method(Method("reinforce", "continue", ReinforceLearner, centralized_policy))
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from torch import nn
+
+from maopg.env.contract import EnvSpec, Strategy
+from maopg.experiment.run_dir import TIMING_COLUMNS
+from maopg.learner import SHARED_COLUMNS, Learner, MacDQNLearner, MAPPOLearner
+from maopg.learner.macdqn import joint_q_network
+from maopg.learner.mappo import centralized_policy, partial_policy
+
+PolicyBuilder = Callable[..., nn.Module]
+"""``builder(spec, *, hidden, layers, config) -> network``: the acting network of a method from
+the environment's spec, the run's network size and the learner's config section."""
+
+
+@dataclass(frozen=True)
+class Method:
+    """One row of the paper's comparison (docs/DESIGN.md §6)."""
+
+    name: str
+    strategy: Strategy | str
+    learner: type[Learner]
+    policy: PolicyBuilder
+    description: str = ""
+
+    @property
+    def section(self) -> str:
+        """Name of the config section holding its hyper-parameters."""
+        return self.learner.section
+
+    @property
+    def config_class(self) -> type:
+        return self.learner.Config
+
+    @property
+    def columns(self) -> tuple[str, ...]:
+        """Its ``metrics.csv`` header."""
+        return (*SHARED_COLUMNS, *self.learner.columns, *TIMING_COLUMNS)
+
+    def build_policy(self, spec: EnvSpec, *, hidden: int, layers: int, config: Any) -> nn.Module:
+        return self.policy(spec, hidden=hidden, layers=layers, config=config)
+
+
+_METHODS: dict[str, Method] = {}
+
+
+def register_method(method: Method, *, overwrite: bool = False) -> Method:
+    """Add ``method`` to the registry (a name already taken is an error unless ``overwrite``)."""
+    if method.name in _METHODS and not overwrite:
+        raise ValueError(f"method {method.name!r} is already registered (pass overwrite=True)")
+    Strategy(method.strategy)
+    _METHODS[method.name] = method
+    return method
+
+
+def get_method(name: str) -> Method:
+    try:
+        return _METHODS[name]
+    except KeyError:
+        known = ", ".join(method_names())
+        raise ValueError(f"unknown method {name!r}; known methods: {known}") from None
+
+
+def method_names() -> list[str]:
+    """Registered methods, in registration order (the paper's methods first)."""
+    return list(_METHODS)
+
+
+def section_classes() -> dict[str, type]:
+    """Every registered learner's config section: name → dataclass."""
+    return {m.section: m.config_class for m in _METHODS.values()}
+
+
+register_method(Method("async", "continue", MAPPOLearner, centralized_policy, "the paper's method"))
+register_method(Method("sync-cut", "any", MAPPOLearner, centralized_policy, "η_any baseline"))
+register_method(Method("sync-wait", "all", MAPPOLearner, centralized_policy, "η_all baseline"))
+register_method(Method("end2end", "primitive", MAPPOLearner, centralized_policy, "primitive MAPPO"))
+register_method(Method("mac-dqn", "continue", MacDQNLearner, joint_q_network, "Mac-Cen-Q"))
+register_method(Method("partial", "continue", MAPPOLearner, partial_policy, "paper §III-D"))

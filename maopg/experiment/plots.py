@@ -1,0 +1,117 @@
+"""Learning curves from run directories: one figure per task, one line per method, mean ± std
+band over seeds, x = low-level samples (the paper's Fig. 4 axes), saved as PNG and SVG.
+
+Each method keeps its colour in every figure, so curves can be compared across tasks.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+
+from maopg.experiment.runs import PAPER_METRIC, RETURN, RunData, group_runs, mean_curve
+
+METHOD_COLOURS = {
+    "async": "tab:red",
+    "sync-cut": "tab:blue",
+    "sync-wait": "tab:green",
+    "end2end": "tab:purple",
+    "mac-dqn": "tab:orange",
+    "partial": "tab:brown",
+}
+METRIC_LABELS = {
+    RETURN: "mean episode return",
+    PAPER_METRIC: "mean option-step reward (paper's metric)",
+}
+
+
+def plot_task(
+    runs: Sequence[RunData],
+    out_stem: str | Path,
+    *,
+    metric: str = RETURN,
+    window: int = 5,
+    methods: Sequence[str] | None = None,
+    title: str | None = None,
+) -> list[Path]:
+    """Plot every method of one task's ``runs``; write ``<out_stem>.png`` and ``.svg``."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    tasks = {r.task for r in runs}
+    if len(tasks) != 1:
+        raise ValueError(f"plot_task needs the runs of exactly one task, got {sorted(tasks)}")
+    task = tasks.pop()
+    groups = group_runs(r for r in runs if methods is None or r.method in methods)
+    order = list(methods) if methods else sorted({m for _, m in groups})
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    for method in order:
+        group = groups.get((task, method))
+        if not group:
+            continue
+        x, mean, std = mean_curve(group, metric, window)
+        if x.size == 0:
+            continue
+        colour = METHOD_COLOURS.get(method)
+        seeds = f"{len(group)} seed{'s' if len(group) > 1 else ''}"
+        ax.plot(x, mean, color=colour, label=f"{method} ({seeds})", lw=2)
+        ax.fill_between(x, mean - std, mean + std, color=colour, alpha=0.2, lw=0)
+    ax.set_xlabel("low-level samples (ticks)")
+    ax.set_ylabel(METRIC_LABELS.get(metric, metric))
+    ax.set_title(title or f"{task}: mean ± std over seeds (moving mean of {window} iterations)")
+    ax.grid(alpha=0.3)
+    ax.ticklabel_format(axis="x", style="sci", scilimits=(0, 3))
+    if ax.lines:
+        ax.legend(loc="best")
+    fig.tight_layout()
+    out_stem = Path(out_stem)
+    out_stem.parent.mkdir(parents=True, exist_ok=True)
+    paths = [out_stem.with_suffix(".png"), out_stem.with_suffix(".svg")]
+    # No date and fixed SVG ids: the same runs redraw byte-identical files (no noise in git).
+    with plt.rc_context({"svg.hashsalt": "maopg"}):
+        fig.savefig(paths[0], dpi=130, metadata={"Software": None})
+        fig.savefig(paths[1], dpi=130, metadata={"Date": None})
+    plt.close(fig)
+    return paths
+
+
+def plot_all(
+    runs: Iterable[RunData],
+    out_dir: str | Path,
+    *,
+    metric: str = RETURN,
+    window: int = 5,
+    methods: Sequence[str] | None = None,
+    prefix: str = "curves",
+) -> list[Path]:
+    """One figure per task found in ``runs``: ``<out_dir>/<prefix>_<task>.png|svg``."""
+    runs = list(runs)
+    paths: list[Path] = []
+    for task in sorted({r.task for r in runs}):
+        task_runs = [r for r in runs if r.task == task]
+        paths += plot_task(
+            task_runs,
+            Path(out_dir) / f"{prefix}_{task}",
+            metric=metric,
+            window=window,
+            methods=methods,
+        )
+    return paths
+
+
+def curve_table(runs: Sequence[RunData], metric: str = RETURN, window: int = 5) -> str:
+    """The plotted mean ± std curves of one task as CSV (``method,samples,mean,std,seeds``):
+    small enough to commit, and enough to redraw a figure without the run directories."""
+    lines = ["method,samples,mean,std,seeds"]
+    for (_, method), group in group_runs(runs).items():
+        x, mean, std = mean_curve(group, metric, window, points=100)
+        lines += [
+            f"{method},{s:.0f},{m:.4f},{d:.4f},{len(group)}"
+            for s, m, d in zip(x, mean, std, strict=True)
+        ]
+    return "\n".join(lines) + "\n"
+
+
+__all__ = ["METHOD_COLOURS", "curve_table", "plot_all", "plot_task"]

@@ -1,0 +1,365 @@
+"""The reproduction grid: methods × tasks × seeds, resumable across sessions, then results.
+
+Each cell is one training run in ``<runs>/<task>/<method>/seed<seed>``:
+
+- **finished** (``done.json`` exists, written by the trainer at the very end): skipped;
+- **partial** (a ``config.json`` but no ``done.json``: a run killed mid-way): resumed with
+  ``--resume``, which continues from its last checkpoint bit for bit — or, where the checkpoint
+  is gone (a fresh clone of the repository keeps no checkpoints), starts again;
+- **new**: started.
+
+The grid's default seeds and a few cells' settings of their own (the Water Filling Mac-DQN
+replay size) are declared by each task at registration (``grid_seeds``, ``grid_overrides``), so
+the one command reproduces exactly the committed grid; the methods are the registry's.
+
+Runs are launched one after another as train command-line subprocesses (a crash or an
+out-of-memory kill loses one run, not the grid) or, with ``in_process=True``, by calling the
+train command line in this process (faster to start; used by the tests). An unknown task or
+method is an error before anything runs (a typo must not pass as an empty grid). ``overrides``
+(``key=value`` train config fields) apply to every run and must be the same on every invocation
+of a grid, because a resumed run refuses a config that differs from its saved one. Grid runs
+record no rollout video (``video=false``; ``python -m eval video`` makes one from any finished
+run).
+
+Afterwards every figure and table is regenerated from the finished runs under ``<runs>`` into
+``<results>``: per-task learning curves (all methods, and the Fig. 4 methods), their CSV,
+``tables.md`` (peak, final, samples to threshold, Table I and II analogs) and
+``evaluation.md``, the reference policies and every method's seed-0 policy evaluated over seeded
+episodes (the levels the curves are read against, and greedy vs sampled action choice).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import subprocess
+import sys
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from maopg.experiment.evaluate import evaluate, results_table
+from maopg.experiment.methods import method_names
+from maopg.experiment.plots import curve_table, plot_task
+from maopg.experiment.run_dir import CONFIG, DONE, FINAL
+from maopg.experiment.runs import RunData, discover_runs
+from maopg.experiment.tables import peak_table, threshold_table
+from maopg.sim.assets import ASSETS_DIR
+from maopg.tasks import task_entry, task_names
+
+PACKAGE = Path(__file__).resolve().parents[1]
+"""The ``maopg`` package (installed or cloned) whose code the evaluation cache is keyed on."""
+REFERENCE_STRATEGIES = ("continue", "any", "all")
+EVALUATION = "evaluation.json"
+"""A seed-0 run's cached entry of ``evaluation.md``."""
+FIG4_METHODS = ("async", "sync-cut", "sync-wait", "end2end")
+TABLE1_METHODS = ("async", "mac-dqn")
+TABLE2_METHODS = ("async", "partial")
+
+
+@dataclass(frozen=True)
+class Cell:
+    task: str
+    method: str
+    seed: int
+
+    def run_dir(self, runs_root: Path) -> Path:
+        return runs_root / self.task / self.method / f"seed{self.seed}"
+
+
+def cell_state(run_dir: Path) -> str:
+    """``finished`` | ``partial`` | ``new`` (see the module docstring)."""
+    if (run_dir / DONE).exists():
+        return "finished"
+    if (run_dir / CONFIG).exists():
+        return "partial"
+    return "new"
+
+
+def _train_args(cell: Cell, run_dir: Path, overrides: Sequence[str]) -> list[str]:
+    return [
+        "--task",
+        cell.task,
+        "--method",
+        cell.method,
+        "--seed",
+        str(cell.seed),
+        "--run-dir",
+        str(run_dir),
+        "--resume",
+        "progress=false",
+        "video=false",
+        *task_entry(cell.task).grid_overrides.get(cell.method, ()),
+        *overrides,
+    ]
+
+
+def _launch(cell: Cell, run_dir: Path, overrides: Sequence[str], in_process: bool) -> str:
+    """Train one cell to completion; returns ``done`` or ``failed: <why>``."""
+    args = _train_args(cell, run_dir, overrides)
+    if in_process:
+        from maopg.experiment.train_cli import main as train_main
+
+        try:
+            train_main(args)
+        except (Exception, SystemExit) as err:  # one broken run must not stop the grid
+            return f"failed: {type(err).__name__}: {err}"
+        return "done"
+    command = [sys.executable, "-m", "maopg.experiment.train_cli", *args]
+    proc = subprocess.run(command, check=False)
+    return "done" if proc.returncode == 0 else f"failed: exit code {proc.returncode}"
+
+
+def log_to_stderr(message: str) -> None:
+    """A ``log`` for :func:`run_grid` that keeps stdout free (for scripts printing a report)."""
+    print(message, file=sys.stderr)
+
+
+def run_grid(
+    runs_root: str | Path,
+    *,
+    tasks: Sequence[str] | None = None,
+    methods: Sequence[str] | None = None,
+    seeds: Sequence[int] | None = None,
+    overrides: Sequence[str] = (),
+    in_process: bool = False,
+    dry_run: bool = False,
+    log=print,
+) -> dict[Cell, str]:
+    """Bring every cell of the grid to ``finished``; returns each cell's outcome:
+    ``skipped`` (already finished), ``done``, ``failed: ...`` or, with ``dry_run``, ``would
+    start`` / ``would resume``. ``tasks`` and ``methods`` default to every registered one,
+    ``seeds`` replaces every task's declared grid seeds. Raises ``ValueError`` for a task or
+    method that is not registered."""
+    tasks = list(tasks) if tasks is not None else task_names()
+    methods = list(methods) if methods is not None else method_names()
+    for kind, given, known in (
+        ("task", tasks, task_names()),
+        ("method", methods, method_names()),
+    ):
+        unknown = [x for x in given if x not in known]
+        if unknown:
+            raise ValueError(f"unknown {kind}(s) {unknown}; choose from {list(known)}")
+    runs_root = Path(runs_root).resolve()
+    outcomes: dict[Cell, str] = {}
+    # Seed-major: an interrupted grid has every method at the same number of seeds.
+    cells = [
+        Cell(t, m, s)
+        for t in tasks
+        for s in (seeds if seeds is not None else task_entry(t).grid_seeds)
+        for m in methods
+    ]
+    for k, cell in enumerate(cells, 1):
+        run_dir = cell.run_dir(runs_root)
+        state = cell_state(run_dir)
+        name = f"[{k}/{len(cells)}] {cell.task}/{cell.method}/seed{cell.seed}"
+        if state == "finished":
+            outcomes[cell] = "skipped"
+        elif dry_run:
+            outcomes[cell] = "would resume" if state == "partial" else "would start"
+        else:
+            log(f"{name}: {'resuming' if state == 'partial' else 'starting'} in {run_dir}")
+            outcomes[cell] = _launch(cell, run_dir, overrides, in_process)
+        log(f"{name}: {outcomes[cell]}")
+    return outcomes
+
+
+def write_results(
+    runs: Sequence[RunData],
+    results_dir: str | Path,
+    *,
+    thresholds: Mapping[str, float] | None = None,
+    window: int = 5,
+) -> list[Path]:
+    """Regenerate every figure, curve CSV and table of ``runs`` into ``results_dir``."""
+    out = Path(results_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    written: list[Path] = []
+    for task in sorted({r.task for r in runs}):
+        task_runs = [r for r in runs if r.task == task]
+        written += plot_task(task_runs, out / f"curves_{task}", window=window)
+        if any(r.method in FIG4_METHODS for r in task_runs):
+            written += plot_task(
+                task_runs,
+                out / f"fig4_{task}",
+                window=window,
+                methods=FIG4_METHODS,
+                title=f"{task}: async vs synchronous baselines and end2end (Fig. 4 analog)",
+            )
+        csv_path = out / f"curves_{task}.csv"
+        csv_path.write_text(curve_table(task_runs, window=window))
+        written.append(csv_path)
+    sections = [
+        ("Peak performance (mean ± std over seeds)", peak_table(runs, window=window)),
+        (
+            "Samples to threshold",
+            threshold_table(runs, thresholds, window=window),
+        ),
+        (
+            "Table I analog: async vs Mac-DQN",
+            peak_table(runs, window=window, methods=TABLE1_METHODS)
+            + "\n"
+            + threshold_table(runs, thresholds, window=window, methods=TABLE1_METHODS),
+        ),
+        (
+            "Table II analog: partially centralized vs centralized (async)",
+            peak_table(runs, window=window, methods=TABLE2_METHODS)
+            + "\n"
+            + threshold_table(runs, thresholds, window=window, methods=TABLE2_METHODS),
+        ),
+    ]
+    text = "# Results\n\nGenerated by `python -m eval reproduce` from the finished run "
+    text += f"directories. Curves are smoothed by a trailing mean over {window} iterations "
+    text += "before peaks and thresholds are taken; the final return is the unsmoothed mean "
+    text += "over the last 10% of a run's samples.\n"
+    for title, table in sections:
+        text += f"\n## {title}\n\n{table}"
+    tables = out / "tables.md"
+    tables.write_text(text)
+    written.append(tables)
+    return written
+
+
+def _sha256(paths: Sequence[Path], root: Path, parts: Sequence[str] = ()) -> str:
+    """sha256 over ``paths`` (named relative to ``root``, then their bytes) and ``parts``."""
+    digest = hashlib.sha256()
+    for path in paths:
+        digest.update(path.relative_to(root).as_posix().encode() + b"\0")
+        digest.update(path.read_bytes())
+    for part in parts:
+        digest.update(part.encode())
+    return digest.hexdigest()
+
+
+def code_digest() -> str:
+    """sha256 of everything an evaluation's numbers depend on besides the weights: the
+    simulator, tasks, policies and reference policies (``maopg/``), the robot and scene models
+    (``assets/``) and the evaluation's own modules. Any change invalidates cached evaluations,
+    so ``evaluation.md`` always describes the code it is committed with."""
+    code = sorted(PACKAGE.rglob("*.py"))
+    assets = sorted(p for p in ASSETS_DIR.rglob("*") if p.is_file())
+    return _sha256([], PACKAGE, [_sha256(code, PACKAGE), _sha256(assets, ASSETS_DIR)])
+
+
+def _cached(path: Path, key: dict, compute: Callable[[], list[dict]]) -> list[dict]:
+    """Evaluation summaries stored in ``path`` if they were made for ``key`` (episodes, the
+    code's and, for a trained policy, the weights' sha256), else computed and stored: the
+    evaluations are deterministic and, on Water Filling, take minutes, so a rerun of the results
+    only evaluates what is new or changed (delete the file to redo)."""
+    if path.exists():
+        saved = json.loads(path.read_text())
+        if saved["key"] == key:
+            return saved["results"]
+    results = compute()
+    path.write_text(json.dumps({"key": key, "results": results}, indent=2) + "\n")
+    return results
+
+
+def reference_results(
+    tasks: Sequence[str], episodes: int, strategies: Sequence[str] = REFERENCE_STRATEGIES
+) -> list[dict]:
+    """The scripted and uniform-random policies of each task under each strategy: the levels
+    every learning curve is read against (state observations: neither policy looks at images).
+    """
+    from maopg.env import make_env
+    from maopg.env.rollout import REFERENCE_POLICIES, reference_policy
+
+    results = []
+    for task in tasks:
+        for strategy in strategies:
+            env = make_env(task, strategy, seed=0)
+            try:
+                for name in REFERENCE_POLICIES:
+                    policy = reference_policy(name, env)
+                    results.append(evaluate(env, policy, episodes, label=name).summary)
+            finally:
+                env.close()
+    return results
+
+
+def policy_results(run: RunData, episodes: int) -> list[dict]:
+    """A run's final policy (``final.pt``), greedy and sampled, over the same seeded episodes."""
+    from maopg.experiment.loading import load_trained
+
+    trained = load_trained(run.path / FINAL)
+    env = trained.make_env(0)
+    results = []
+    try:
+        for greedy in (True, False):
+            label = f"{run.method} seed{run.seed} {'greedy' if greedy else 'sampled'}"
+            actor = trained.actor(greedy=greedy, seed=0)
+            results.append(evaluate(env, actor, episodes, label=label).summary)
+    finally:
+        env.close()
+    return results
+
+
+def write_evaluation(
+    runs: Sequence[RunData],
+    results_dir: str | Path,
+    *,
+    episodes: int = 10,
+    reference_episodes: int = 100,
+) -> Path:
+    """``evaluation.md``: :func:`reference_results` (cached in ``reference.json`` beside it) and
+    :func:`policy_results` of every seed-0 run that kept its weights (cached in the run
+    directory's ``evaluation.json``)."""
+    out = Path(results_dir)
+    tasks = sorted({r.task for r in runs})
+    code = code_digest()
+    reference = _cached(
+        out / "reference.json",
+        {"episodes": reference_episodes, "tasks": tasks, "code": code},
+        lambda: reference_results(tasks, reference_episodes),
+    )
+    trained: list[dict] = []
+    for run in runs:
+        if run.seed == 0 and (run.path / FINAL).exists():
+            weights = _sha256([run.path / FINAL], run.path)
+            trained += _cached(
+                run.path / EVALUATION,
+                {"episodes": episodes, "code": code, "weights": weights},
+                lambda run=run: policy_results(run, episodes),
+            )
+    text = (
+        "# Evaluation\n\nGenerated by `python -m eval reproduce`: each policy plays seeded "
+        "episodes (reset seeds 0, 1, ...; mean ± std over episodes).\n\n"
+        "## Reference policies\n\n"
+        "A random policy's return varies a lot from episode to episode, hence more episodes.\n\n"
+        + results_table(reference)
+        + "\n## Trained policies (seed 0 of each method, after training)\n\n"
+        "Greedy takes the mode of the policy (Mac-DQN: ε = 0); sampled draws from it as in "
+        "training (Mac-DQN: ε-greedy at its final ε).\n\n" + results_table(trained)
+    )
+    path = out / "evaluation.md"
+    path.write_text(text)
+    return path
+
+
+def reproduce(
+    runs_root: str | Path,
+    results_dir: str | Path,
+    *,
+    thresholds: Mapping[str, float] | None = None,
+    window: int = 5,
+    train: bool = True,
+    eval_episodes: int = 10,
+    reference_episodes: int = 100,
+    **grid_kw,
+) -> tuple[dict[Cell, str], list[Path]]:
+    """Run (or resume) the grid, then regenerate the results from the finished runs under
+    ``runs_root`` (``eval_episodes=0`` skips ``evaluation.md``; ``reference_episodes`` are the
+    reference policies' episodes in it)."""
+    outcomes = run_grid(runs_root, **grid_kw) if train else {}
+    runs = discover_runs([runs_root]) if Path(runs_root).exists() else []
+    written = write_results(runs, results_dir, thresholds=thresholds, window=window)
+    if eval_episodes > 0 and runs:
+        written.append(
+            write_evaluation(
+                runs,
+                results_dir,
+                episodes=eval_episodes,
+                reference_episodes=reference_episodes,
+            )
+        )
+    return outcomes, written

@@ -1,0 +1,139 @@
+"""The files of a run directory, and its per-iteration record: ``metrics.csv``, TensorBoard
+scalars, the learning-curve PNG and the ``done.json`` marker.
+
+The CSV is the record the evaluation tools and the resume test read, so floats are written with
+``repr`` (exact round trip) and a resumed run first cuts the file back to the checkpoint's
+iteration: rows a killed run wrote after its last checkpoint are recomputed, not duplicated.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import os
+from pathlib import Path
+from typing import Any
+
+CONFIG = "config.json"
+METRICS = "metrics.csv"
+CHECKPOINT = "checkpoint.pt"
+"""Everything needed to resume, written every ``checkpoint_every`` iterations (large)."""
+FINAL = "final.pt"
+"""The trained weights (what :func:`maopg.experiment.loading.load_trained` reads)."""
+CURVE = "learning_curve.png"
+VIDEO = "rollout.mp4"
+DONE = "done.json"
+"""Written last, when every other output of a finished run exists: the one sign that a run is
+complete. A small file of its own (not ``final.pt``) so that a results folder can keep the
+record of a run — config, metrics, marker — without its weights."""
+
+TIMING_COLUMNS = ("samples_per_s", "wall_time")
+"""Columns that depend on the machine, not on the seed (excluded from determinism checks)."""
+
+
+def _format(value: Any) -> str:
+    if isinstance(value, float):
+        return "nan" if math.isnan(value) else repr(value)
+    return str(value)
+
+
+class RunLog:
+    """Appends one row per iteration to ``metrics.csv`` and mirrors it to TensorBoard.
+
+    ``columns`` are the method's (:attr:`maopg.experiment.methods.Method.columns`): the first
+    two, iteration and samples, index the rows; the rest become TensorBoard scalars over samples.
+    """
+
+    def __init__(
+        self, run_dir: Path, columns: tuple[str, ...], resume_iteration: int | None = None
+    ) -> None:
+        from torch.utils.tensorboard import SummaryWriter
+
+        self.columns = columns
+        self.path = run_dir / METRICS
+        if resume_iteration is None or not self.path.exists():
+            self.path.write_text(",".join(columns) + "\n")
+        else:
+            kept = [
+                r
+                for r in read_metrics(self.path)
+                if None not in r.values() and int(r["iteration"]) <= resume_iteration
+            ]
+            with self.path.open("w", newline="") as handle:
+                writer = csv.DictWriter(handle, fieldnames=columns)
+                writer.writeheader()
+                writer.writerows(kept)
+        purge = None if resume_iteration is None else resume_iteration + 1
+        self.tb = SummaryWriter(str(run_dir / "tb"), purge_step=purge)
+
+    def write(self, row: dict[str, Any]) -> None:
+        with self.path.open("a", newline="") as handle:
+            handle.write(",".join(_format(row[c]) for c in self.columns) + "\n")
+        step = int(row["samples"])
+        for key in self.columns[2:]:
+            value = float(row[key])
+            if not math.isnan(value):
+                self.tb.add_scalar(f"train/{key}", value, step)
+
+    def close(self) -> None:
+        self.tb.close()
+
+
+def write_done(run_dir: Path, *, iterations: int, samples: int, wall_time: float) -> Path:
+    """Mark ``run_dir`` finished (atomically: a reader never sees half a marker)."""
+    path = run_dir / DONE
+    tmp = path.with_name(f".{DONE}.tmp")
+    record = {"iterations": iterations, "samples": samples, "wall_time": wall_time}
+    tmp.write_text(json.dumps(record, indent=2) + "\n")
+    os.replace(tmp, path)
+    return path
+
+
+def read_done(run_dir: Path) -> dict[str, Any] | None:
+    """The ``done.json`` record of a finished run, ``None`` while it is not finished."""
+    path = run_dir / DONE
+    return json.loads(path.read_text()) if path.exists() else None
+
+
+def read_metrics(path: Path) -> list[dict[str, str]]:
+    with path.open(newline="") as handle:
+        return list(csv.DictReader(handle))
+
+
+def plot_learning_curve(csv_path: Path, png_path: Path, title: str = "") -> Path:
+    """Mean episode return (per iteration and smoothed) and the paper's metric vs samples."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    rows = read_metrics(csv_path)
+    samples = np.array([float(r["samples"]) for r in rows])
+    returns = np.array([float(r["episode_return"]) for r in rows])
+    paper = np.array([float(r["option_step_reward"]) for r in rows])
+
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(7, 6), sharex=True)
+    seen = ~np.isnan(returns)
+    top.plot(samples[seen], returns[seen], ".", alpha=0.3, label="per iteration")
+    if seen.sum() >= 2:
+        window = max(1, int(seen.sum()) // 20)
+        kernel = np.ones(window) / window
+        top.plot(
+            samples[seen][window - 1 :],
+            np.convolve(returns[seen], kernel, mode="valid"),
+            label=f"moving mean ({window} iterations)",
+        )
+    top.set_ylabel("mean episode return")
+    top.legend(loc="lower right")
+    top.grid(alpha=0.3)
+    bottom.plot(samples, paper, color="tab:green")
+    bottom.set_ylabel("mean option-step reward\n(paper's metric)")
+    bottom.set_xlabel("low-level samples (ticks)")
+    bottom.grid(alpha=0.3)
+    fig.suptitle(title or csv_path.parent.name)
+    fig.tight_layout()
+    fig.savefig(png_path, dpi=120)
+    plt.close(fig)
+    return png_path

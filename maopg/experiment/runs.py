@@ -1,0 +1,180 @@
+"""Reading training run directories and turning their curves into per-method statistics.
+
+A run directory (written by ``python -m train``) holds ``config.json`` (task, method, seed, ...)
+and ``metrics.csv`` (one row per iteration: ``samples`` — low-level ticks so far —,
+``episode_return`` — mean return of the episodes that ended in the iteration, ``nan`` if none —
+and ``option_step_reward``, the paper's metric). ``done.json`` appears when the run finished.
+
+Curves are noisy per iteration, so statistics use a trailing moving average over ``window``
+iterations that reported a value; every statistic is computed per seed first and then
+summarised as mean ± std over seeds (population std, ``ddof=0``). Unfinished runs are left out
+of statistics unless asked for: a seed still in progress would cut the common range of a
+method's curves short and lower its peak.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from collections import defaultdict
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from maopg.experiment.run_dir import CONFIG, DONE, METRICS
+
+RETURN = "episode_return"
+PAPER_METRIC = "option_step_reward"
+
+
+@dataclass
+class RunData:
+    """One run's identity and curves."""
+
+    path: Path
+    task: str
+    method: str
+    seed: int
+    samples: np.ndarray
+    """Low-level ticks at the end of each iteration."""
+    metrics: dict[str, np.ndarray]
+    """Column name → per-iteration values (``nan`` where the iteration had none)."""
+    finished: bool
+
+    def curve(self, metric: str = RETURN, window: int = 1) -> tuple[np.ndarray, np.ndarray]:
+        """``(samples, values)`` of ``metric`` over iterations that reported it, smoothed by a
+        trailing mean over the last ``window`` such iterations."""
+        if metric not in self.metrics:
+            raise KeyError(f"{self.path / METRICS} has no column {metric!r}")
+        values = self.metrics[metric]
+        seen = ~np.isnan(values)
+        return self.samples[seen], trailing_mean(values[seen], window)
+
+
+def trailing_mean(values: np.ndarray, window: int) -> np.ndarray:
+    """Mean of the last ``window`` values at each position (fewer at the start)."""
+    if window < 1:
+        raise ValueError(f"window must be >= 1, got {window}")
+    cumsum = np.concatenate([[0.0], np.cumsum(values, dtype=np.float64)])
+    idx = np.arange(1, len(values) + 1)
+    start = np.maximum(idx - window, 0)
+    return (cumsum[idx] - cumsum[start]) / (idx - start)
+
+
+def load_run(run_dir: str | Path) -> RunData:
+    """Read ``config.json`` and ``metrics.csv`` of one run directory (a run that has not
+    finished an iteration yet has a header and no rows: empty curves)."""
+    run_dir = Path(run_dir)
+    config = json.loads((run_dir / CONFIG).read_text())
+    with (run_dir / METRICS).open(newline="") as handle:
+        reader = csv.DictReader(handle)
+        rows = list(reader)
+        columns = reader.fieldnames or ()
+    metrics = {
+        name: np.array([float(r[name]) for r in rows], dtype=np.float64)
+        for name in columns
+        if name != "samples"
+    }
+    samples = np.array([float(r["samples"]) for r in rows], dtype=np.float64)
+    return RunData(
+        path=run_dir,
+        task=str(config["task"]),
+        method=str(config["method"]),
+        seed=int(config["seed"]),
+        samples=samples,
+        metrics=metrics,
+        finished=(run_dir / DONE).exists(),
+    )
+
+
+def discover_runs(roots: Iterable[str | Path], *, unfinished: bool = False) -> list[RunData]:
+    """Every finished run directory (``config.json`` + ``metrics.csv`` + ``done.json``) under
+    ``roots``, sorted; with ``unfinished``, runs in progress too."""
+    found: dict[Path, RunData] = {}
+    for root in roots:
+        root = Path(root)
+        if not root.exists():
+            raise FileNotFoundError(f"run directory root {root} does not exist")
+        for metrics in sorted(root.rglob(METRICS)):
+            if (metrics.parent / CONFIG).exists():
+                run = load_run(metrics.parent)
+                if run.finished or unfinished:
+                    found[metrics.parent.resolve()] = run
+    return sorted(found.values(), key=lambda r: (r.task, r.method, r.seed, str(r.path)))
+
+
+def group_runs(runs: Iterable[RunData]) -> dict[tuple[str, str], list[RunData]]:
+    """``(task, method)`` → runs (seeds), insertion-ordered by task then method."""
+    groups: dict[tuple[str, str], list[RunData]] = defaultdict(list)
+    for run in sorted(runs, key=lambda r: (r.task, r.method, r.seed)):
+        groups[(run.task, run.method)].append(run)
+    return dict(groups)
+
+
+# ----------------------------------------------------------------------------- statistics
+@dataclass(frozen=True)
+class Summary:
+    """Mean ± std over the seeds that contributed (``nan`` values are left out), and how many
+    did."""
+
+    mean: float
+    std: float
+    count: int
+
+    @staticmethod
+    def of(values: Sequence[float]) -> Summary:
+        arr = np.asarray([v for v in values if not math.isnan(v)], dtype=np.float64)
+        if arr.size == 0:
+            return Summary(math.nan, math.nan, 0)
+        return Summary(float(arr.mean()), float(arr.std()), int(arr.size))
+
+
+def peak(run: RunData, metric: str = RETURN, window: int = 1) -> float:
+    """Best smoothed value of ``metric`` in the run (``nan`` if it never reported one)."""
+    _, values = run.curve(metric, window)
+    return float(values.max()) if values.size else math.nan
+
+
+def final(run: RunData, metric: str = RETURN, fraction: float = 0.1) -> float:
+    """Mean per-iteration ``metric`` over the last ``fraction`` of the run's samples (``nan`` if
+    none reported there): where training ended, which a peak alone does not tell."""
+    if not run.samples.size:
+        return math.nan
+    samples, values = run.curve(metric)
+    tail = values[samples > run.samples[-1] * (1.0 - fraction)]
+    return float(tail.mean()) if tail.size else math.nan
+
+
+def samples_to_threshold(
+    run: RunData, threshold: float, metric: str = RETURN, window: int = 1
+) -> float:
+    """Low-level samples at the first iteration whose smoothed ``metric`` ≥ ``threshold``
+    (``nan`` if never)."""
+    samples, values = run.curve(metric, window)
+    hits = np.flatnonzero(values >= threshold)
+    return float(samples[hits[0]]) if hits.size else math.nan
+
+
+def mean_curve(
+    runs: Sequence[RunData], metric: str = RETURN, window: int = 1, points: int = 200
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(samples, mean, std)`` over seeds on a common grid of low-level samples.
+
+    Seeds' iterations end at slightly different sample counts (and report their first episode
+    return at different ones), so each smoothed curve is linearly interpolated onto a grid over
+    the range **every** seed covers: outside it a "mean over seeds" would be one seed's value
+    and jump. Empty arrays when the seeds share no range.
+    """
+    curves = [c for c in (r.curve(metric, window) for r in runs) if c[0].size]
+    if not curves:
+        return np.empty(0), np.empty(0), np.empty(0)
+    lo = max(float(s[0]) for s, _ in curves)
+    hi = min(float(s[-1]) for s, _ in curves)
+    if hi < lo:
+        return np.empty(0), np.empty(0), np.empty(0)
+    grid = np.linspace(lo, hi, points) if hi > lo else np.array([lo])
+    stacked = np.stack([np.interp(grid, s, v) for s, v in curves])
+    return grid, stacked.mean(axis=0), stacked.std(axis=0)

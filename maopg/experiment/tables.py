@@ -1,0 +1,140 @@
+"""Markdown result tables per task × method: peak performance and samples to a threshold.
+
+Peak = the best smoothed mean episode return a seed reached (and, in its own column, the best
+smoothed option-step reward: the paper's metric, a different quantity — never compare the two).
+Final = the mean return over the last 10% of a seed's samples: a method that peaks and then
+falls back (Mac-DQN exploring at its final ε, say) differs from one that stays there.
+Samples to threshold = low-level samples until a seed's smoothed return first reached the
+task's threshold (declared by the task at registration, or given); seeds that never did are
+counted in the "reached" column, not averaged.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping, Sequence
+
+from maopg.experiment.runs import (
+    PAPER_METRIC,
+    RETURN,
+    RunData,
+    Summary,
+    final,
+    group_runs,
+    peak,
+)
+from maopg.experiment.runs import samples_to_threshold as _samples_to_threshold
+from maopg.tasks import task_entry
+
+
+def task_threshold(task: str) -> float | None:
+    """The return threshold the task declared at registration (``None``: none declared, or a
+    task whose plugin is not imported here)."""
+    try:
+        return task_entry(task).threshold
+    except ValueError:
+        return None
+
+
+def format_summary(summary: Summary, digits: int = 1) -> str:
+    """``mean ± std`` (``—`` when no seed contributed; the bare value for one seed, whose
+    "± 0" would read as no spread rather than unknown spread)."""
+    if summary.count == 0:
+        return "—"
+    if summary.count == 1:
+        return f"{summary.mean:.{digits}f}"
+    return f"{summary.mean:.{digits}f} ± {summary.std:.{digits}f}"
+
+
+def _seeds(group: Sequence[RunData]) -> str:
+    """How many seeds, and how many of them are still in progress (when any are included)."""
+    running = sum(not r.finished for r in group)
+    return f"{len(group)} ({running} unfinished)" if running else str(len(group))
+
+
+def _markdown(header: Sequence[str], rows: Iterable[Sequence[str]]) -> str:
+    lines = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
+    lines += ["| " + " | ".join(row) + " |" for row in rows]
+    return "\n".join(lines) + "\n"
+
+
+def _selected(
+    runs: Iterable[RunData], methods: Sequence[str] | None
+) -> list[tuple[tuple[str, str], list[RunData]]]:
+    groups = group_runs(r for r in runs if methods is None or r.method in methods)
+    order = {m: i for i, m in enumerate(methods or ())}
+    return sorted(groups.items(), key=lambda kv: (kv[0][0], order.get(kv[0][1], 0), kv[0][1]))
+
+
+def peak_table(
+    runs: Iterable[RunData], *, window: int = 1, methods: Sequence[str] | None = None
+) -> str:
+    """Per task × method: seeds, peak and final return, peak paper's metric, samples trained."""
+    rows = []
+    for (task, method), group in _selected(runs, methods):
+        returns = Summary.of([peak(r, RETURN, window) for r in group])
+        last = Summary.of([final(r, RETURN) for r in group])
+        paper = Summary.of(
+            [
+                peak(r, PAPER_METRIC, window) if PAPER_METRIC in r.metrics else math.nan
+                for r in group
+            ]
+        )
+        trained = Summary.of([float(r.samples[-1]) if r.samples.size else math.nan for r in group])
+        rows.append(
+            [
+                task,
+                method,
+                _seeds(group),
+                format_summary(returns),
+                format_summary(last),
+                format_summary(paper, 2),
+                format_summary(trained, 0),
+            ]
+        )
+    header = [
+        "task",
+        "method",
+        "seeds",
+        "peak episode return",
+        "final episode return (last 10%)",
+        "peak option-step reward (paper's metric)",
+        "samples trained",
+    ]
+    return _markdown(header, rows)
+
+
+def threshold_table(
+    runs: Iterable[RunData],
+    thresholds: Mapping[str, float] | None = None,
+    *,
+    window: int = 1,
+    methods: Sequence[str] | None = None,
+) -> str:
+    """Per task × method: low-level samples until the smoothed return reached the threshold."""
+    runs = list(runs)
+    declared = {t: task_threshold(t) for t in {r.task for r in runs}}
+    thresholds = {
+        **{t: v for t, v in declared.items() if v is not None},
+        **(thresholds or {}),
+    }
+    rows = []
+    for (task, method), group in _selected(runs, methods):
+        n = len(group)
+        if task not in thresholds:
+            rows.append([task, method, "—", "no threshold set", f"0/{n}"])
+            continue
+        reached = Summary.of(
+            [_samples_to_threshold(r, thresholds[task], RETURN, window) for r in group]
+        )
+        rows.append(
+            [
+                task,
+                method,
+                f"{thresholds[task]:g}",
+                format_summary(reached, 0),
+                f"{reached.count}/{n}",
+            ]
+        )
+    header = ["task", "method", "return threshold", "samples to threshold", "seeds reached"]
+    return _markdown(header, rows)

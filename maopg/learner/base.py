@@ -1,0 +1,118 @@
+"""What every learner implements, so that one training loop runs any method.
+
+A learner owns its networks, its optimisers and its *collection loop*: each :meth:`iteration`
+steps the environments (a :class:`~maopg.env.vector.SeededVectorEnv`, which knows nothing of the
+algorithm) for at least ``batch_ticks`` low-level ticks with its own acting rule and learns from
+what it saw. The trainer only counts samples, logs the returned row and checkpoints
+:meth:`state_dict`. A new learner subclasses :class:`Learner`; a method pairs it with a
+termination strategy and a policy builder (``maopg.experiment.methods``).
+"""
+
+from __future__ import annotations
+
+import math
+from abc import ABC, abstractmethod
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+import torch
+from torch import nn
+
+from maopg.env.contract import DecisionPoint, EnvSpec
+from maopg.env.vector import SeededVectorEnv
+
+SHARED_COLUMNS = (
+    "iteration",
+    "samples",
+    "option_steps",
+    "episodes",
+    "episode_return",
+    "episode_length",
+    "success_rate",
+    "option_step_reward",
+)
+"""What every learner reports first (``iteration`` and ``samples`` are the trainer's).
+``episode_return`` (mean return of the episodes that ended in the iteration, NaN if none) is the
+primary metric; ``option_step_reward`` (mean summed reward per option step of the batch) is the
+paper's metric — the two are different quantities and must not be compared."""
+
+Actor = Callable[[DecisionPoint], np.ndarray]
+"""A trained policy in the ``DecisionPoint -> joint option`` protocol of evaluation and video."""
+
+
+@dataclass(frozen=True)
+class LearnerSetup:
+    """The run-level settings a learner is built from (its own hyper-parameters are ``config``,
+    the method's config section)."""
+
+    spec: EnvSpec
+    config: Any
+    """The learner's config section (an instance of :attr:`Learner.Config`)."""
+    num_envs: int
+    batch_ticks: int
+    gamma: float
+    hidden: int
+    """Width of the encoders' MLP layers (networks the learner builds itself, e.g. a critic)."""
+    layers: int
+    sample_gen: torch.Generator
+    """Draws every acting decision (checkpointed by the trainer)."""
+    update_gen: torch.Generator
+    """Draws minibatches and replay samples (checkpointed by the trainer)."""
+
+
+class Learner(ABC):
+    """One method's learning algorithm (see the module docstring)."""
+
+    Config: ClassVar[type]
+    """The dataclass of its hyper-parameters: the config section ``<section>.<field>=value``.
+    It has a ``validate()`` that raises ``ValueError`` naming a bad field."""
+    section: ClassVar[str]
+    """Name of its config section (``ppo``, ``dqn``)."""
+    columns: ClassVar[tuple[str, ...]]
+    """Its own ``metrics.csv`` columns, logged after :data:`SHARED_COLUMNS`."""
+    policy_key: ClassVar[str]
+    """The ``final.pt`` entry holding the acting network's weights."""
+
+    def __init__(self, policy: nn.Module, setup: LearnerSetup) -> None:
+        self.policy = policy
+        self.setup = setup
+        self.config = setup.config
+
+    @abstractmethod
+    def iteration(self, envs: SeededVectorEnv, samples: int) -> tuple[dict[str, Any], int]:
+        """Collect at least ``batch_ticks`` ticks (``samples`` so far) and learn; return the
+        metrics row (the shared columns but iteration and samples, then :attr:`columns`) and
+        the ticks taken."""
+
+    def final_state(self) -> dict[str, Any]:
+        """What ``final.pt`` keeps to rebuild the acting policy."""
+        return {self.policy_key: self.policy.state_dict()}
+
+    @abstractmethod
+    def state_dict(self) -> dict[str, Any]:
+        """Networks, optimisers and learner state for ``checkpoint.pt`` (top-level keys)."""
+
+    @abstractmethod
+    def load_state_dict(self, state: dict[str, Any]) -> None: ...
+
+    @staticmethod
+    @abstractmethod
+    def actor(policy: nn.Module, config: Any, *, greedy: bool, seed: int) -> Actor:
+        """The trained ``policy`` acting on decision points: its mode (``greedy``) or sampled as
+        in training, seeded with ``seed``."""
+
+
+def mean(values: list[float]) -> float:
+    return float(np.mean(values)) if values else math.nan
+
+
+def episode_metrics(episodes: list[dict[str, Any]]) -> dict[str, Any]:
+    """The shared columns about the episodes that ended in an iteration (NaN if none did)."""
+    return {
+        "episodes": len(episodes),
+        "episode_return": mean([e["return"] for e in episodes]),
+        "episode_length": mean([e["ticks"] for e in episodes]),
+        "success_rate": mean([e["solved"] for e in episodes]),
+    }

@@ -1,0 +1,164 @@
+"""Task registry: everything specific to a task, declared once where the task registers.
+
+A :class:`TaskEntry` names the task class and its config dataclass and carries what the rest of
+the project would otherwise look up by task name: the scripted reference policy, the video
+panel's state lines, training defaults, the reproduction grid's seeds, threshold and per-method
+overrides. Classes and functions may be given as ``"package.module:Attr"`` strings (dotted
+attributes allowed: ``"pkg.task:MyTask.Config"``), imported on first use, so registering a task
+imports none of its simulation code.
+
+``make_config`` validates overrides against the config's fields, so a typo fails loudly with the
+list of valid keys instead of being silently ignored.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Any
+
+from maopg.tasks.base import Task, TaskConfig
+from maopg.tasks.scripting import ScriptedFactory
+
+StateLines = Callable[[Mapping[str, Any]], list[str]]
+"""Formats a ``Task.describe()`` dict as the video panel's lines."""
+
+
+def _resolve(ref: Any) -> Any:
+    """Import ``"package.module:Attr.attr"`` lazily; any other value is returned as is."""
+    if not isinstance(ref, str):
+        return ref
+    module, sep, path = ref.partition(":")
+    if not sep or not path:
+        raise ValueError(f"expected 'package.module:Attr', got {ref!r}")
+    value: Any = importlib.import_module(module)
+    for attr in path.split("."):
+        try:
+            value = getattr(value, attr)
+        except AttributeError:
+            raise ValueError(f"{ref!r}: {type(value).__name__} has no attribute {attr!r}") from None
+    return value
+
+
+@dataclass(frozen=True)
+class TaskEntry:
+    """A registered task and what the project needs to know about it."""
+
+    name: str
+    task: type[Task] | str
+    """The task class, or ``"module:Class"``."""
+    config: type[TaskConfig] | str
+    """Its config dataclass, or ``"module:Class"``."""
+    scripted: ScriptedFactory | str | None = None
+    """``factory(config) -> policy(point) -> joint option``, the hand-written reference."""
+    state_lines: StateLines | str | None = None
+    """``describe()`` dict -> the video panel's lines (default: ``generic_state_lines``)."""
+    train_defaults: Mapping[str, Any] = field(default_factory=dict)
+    """Training-config fields this task defaults (``batch_ticks``, ``total_samples``, ...)."""
+    grid_seeds: tuple[int, ...] = (0,)
+    """Seeds of the reproduction grid."""
+    threshold: float | None = None
+    """Return threshold of the samples-to-threshold tables (``None``: no such column)."""
+    grid_overrides: Mapping[str, tuple[str, ...]] = field(default_factory=dict)
+    """Method name -> extra training ``key=value`` overrides of that method's grid cells."""
+
+    def task_class(self) -> type[Task]:
+        cls = _resolve(self.task)
+        if not (isinstance(cls, type) and issubclass(cls, Task)):
+            raise TypeError(f"task {self.name!r}: {self.task!r} is not a Task class")
+        return cls
+
+    def config_class(self) -> type[TaskConfig]:
+        cls = _resolve(self.config)
+        if not (isinstance(cls, type) and issubclass(cls, TaskConfig)):
+            raise TypeError(f"task {self.name!r}: {self.config!r} is not a TaskConfig dataclass")
+        return cls
+
+    def scripted_factory(self) -> ScriptedFactory | None:
+        return _resolve(self.scripted)
+
+    def state_lines_fn(self) -> StateLines | None:
+        return _resolve(self.state_lines)
+
+
+_TASKS: dict[str, TaskEntry] = {}
+
+
+def register_task(
+    name: str,
+    task: type[Task] | str,
+    *,
+    config: type[TaskConfig] | str | None = None,
+    scripted: ScriptedFactory | str | None = None,
+    state_lines: StateLines | str | None = None,
+    train_defaults: Mapping[str, Any] | None = None,
+    grid_seeds: tuple[int, ...] = (0,),
+    threshold: float | None = None,
+    grid_overrides: Mapping[str, tuple[str, ...]] | None = None,
+    overwrite: bool = False,
+) -> TaskEntry:
+    """Register task ``name`` (a user's task plugs in here) and return its entry.
+
+    ``config`` defaults to the task class's ``Config`` attribute (for a lazy ``"module:Class"``
+    task: ``"module:Class.Config"``, looked up on first use).
+    """
+    if name in _TASKS and not overwrite:
+        raise ValueError(f"task {name!r} is already registered (pass overwrite=True)")
+    if config is None and isinstance(task, str):
+        config = f"{task}.Config"
+    elif config is None:
+        config = getattr(task, "Config", None)
+        if config is None:
+            raise ValueError(
+                f"task {name!r}: {task.__name__} has no Config attribute; pass config="
+            )
+    entry = TaskEntry(
+        name=name,
+        task=task,
+        config=config,
+        scripted=scripted,
+        state_lines=state_lines,
+        train_defaults=MappingProxyType(dict(train_defaults or {})),
+        grid_seeds=tuple(grid_seeds),
+        threshold=threshold,
+        grid_overrides=MappingProxyType(dict(grid_overrides or {})),
+    )
+    _TASKS[name] = entry
+    return entry
+
+
+def task_entry(name: str) -> TaskEntry:
+    """The entry of a registered task (an unknown name lists the known ones)."""
+    try:
+        return _TASKS[name]
+    except KeyError:
+        raise ValueError(f"unknown task {name!r}; known tasks: {', '.join(task_names())}") from None
+
+
+def task_names() -> list[str]:
+    return sorted(_TASKS)
+
+
+def task_class(name: str) -> type[Task]:
+    return task_entry(name).task_class()
+
+
+def make_config(name: str, overrides: Mapping[str, Any] | None = None) -> TaskConfig:
+    """The task's default config with ``overrides`` applied (unknown keys are an error)."""
+    config = task_entry(name).config_class()()
+    overrides = dict(overrides or {})
+    fields = {f.name for f in dataclasses.fields(config)}
+    unknown = sorted(set(overrides) - fields)
+    if unknown:
+        raise ValueError(
+            f"unknown config key(s) {unknown} for task {name!r}; valid keys: {sorted(fields)}"
+        )
+    return dataclasses.replace(config, **overrides)
+
+
+def load(name: str, overrides: Mapping[str, Any] | None = None) -> Task:
+    """Build task ``name`` with its default config updated by ``overrides``."""
+    return task_class(name)(make_config(name, overrides))

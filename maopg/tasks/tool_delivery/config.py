@@ -1,0 +1,36 @@
+"""Tool Delivery's config, in a module of its own: the registry reads its defaults and
+validates overrides without importing the simulation."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from maopg.tasks.base import TaskConfig
+
+
+@dataclass(frozen=True)
+class Config(TaskConfig):
+    """Tool Delivery settings; the defaults are the canonical task's."""
+
+    max_ticks: int = 150
+    tick_seconds: float = 1.0
+    timestep: float = 0.02  # stable for the servos and welds; 50 physics steps per tick
+    turtlebot_robot: str = "turtlebot"
+    fetch_robot: str = "fetch"
+    human_stage_ticks: int = 18
+    search_ticks: int = 6
+    pass_ticks: int = 4
+    max_wait_ticks: int = 10
+    max_staged: int = 2
+    step_reward: float = -1.0
+    delivery_reward: float = 100.0
+    failed_pass_reward: float = -10.0
+    mask_options: bool = False
+    """Mask searches of found tools (or with the desk full) and passes with nothing staged.
+    Off by default: the canonical task lets the Fetch waste time on them."""
+    arrive_tol: float = 0.05
+    """A Turtlebot within this distance of a waypoint has arrived (m)."""
+    primitive_step: float = 0.6
+    """Distance of a one-tick primitive move (m): the Turtlebot's speed times one tick."""
+    primitive_tol: float = 0.4
+    """Arrival tolerance in primitive mode, where moves lie on a 0.6 m lattice."""

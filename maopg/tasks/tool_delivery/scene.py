@@ -1,0 +1,40 @@
+"""The Tool Delivery scene: the warehouse arena, two Turtlebots, the Fetch and three tools.
+
+One builder for the task and for the simulation tests, so both exercise the same composition.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+from maopg.sim.assets import ASSETS_DIR
+from maopg.sim.scene import Scene, SceneBuilder
+from maopg.tasks.tool_delivery.config import Config
+from maopg.tasks.tool_delivery.constants import (
+    AGENTS,
+    BASKET,
+    FETCH,
+    FETCH_BASE,
+    GRIPPER,
+    NUM_TOOLS,
+    TOOL,
+    TURTLEBOT_STARTS,
+    TURTLEBOTS,
+)
+
+ARENA = ASSETS_DIR / "arenas" / "tool_delivery.xml"
+
+
+def build_scene(
+    config: Config, turtlebot_starts: Sequence[tuple[float, float]] = TURTLEBOT_STARTS
+) -> Scene:
+    """Compile the scene; each tool may rest in the world, the gripper or either basket."""
+    builder = SceneBuilder(ARENA, timestep=config.timestep, render_size=config.image_size)
+    for w, (x, y) in zip(TURTLEBOTS, turtlebot_starts, strict=True):
+        builder.add_robot(AGENTS[w], config.turtlebot_robot, (x, y, 0.0), yaw=math.pi)
+    builder.add_robot(AGENTS[FETCH], config.fetch_robot, (*FETCH_BASE, 0.0), yaw=0.0)
+    holders = [None, GRIPPER, *(BASKET.format(AGENTS[w]) for w in TURTLEBOTS)]
+    for j in range(NUM_TOOLS):
+        builder.add_attachable(TOOL.format(j), holders)
+    return builder.build()

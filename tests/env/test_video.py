@@ -1,0 +1,233 @@
+"""Headless rollout videos on the real Tool Delivery scene: frame count, size, overlay, seed."""
+
+from __future__ import annotations
+
+import hashlib
+
+import imageio.v2 as imageio
+import numpy as np
+import pytest
+
+from maopg.env import make_env
+from maopg.env.rollout import RandomPolicy, run_episode
+from maopg.env.video import (
+    BLOCK,
+    CAPTION,
+    GAP,
+    HIGHLIGHT,
+    OVERVIEW_SIZE,
+    FrameComposer,
+    Overlay,
+    generic_state_lines,
+    observation_lines,
+    record_episode,
+    state_lines,
+)
+from maopg.tasks import ObsLayout
+
+
+def _read(path):
+    reader = imageio.get_reader(path)
+    try:
+        return np.stack(list(reader.iter_data()))  # len(reader) is inf
+    finally:
+        reader.close()
+
+
+def _short_env(seed: int = 0):
+    return make_env("tool_delivery", "continue", seed=seed, overrides={"max_ticks": 12})
+
+
+def test_short_rollout_writes_one_frame_per_tick(tmp_path):
+    env = _short_env()
+    try:
+        result = record_episode(env, RandomPolicy(env.spec, 1), tmp_path / "v.mp4", seed=1, fps=5)
+    finally:
+        env.close()
+    assert result.ticks == 12 and result.frames == result.ticks + 1
+    frames = _read(result.path)
+    assert frames.shape == (13, *result.shape)
+    height, width, _ = result.shape
+    assert height % BLOCK == 0 and width % BLOCK == 0  # the writer never had to resize
+    assert height >= OVERVIEW_SIZE[0] + CAPTION and width >= OVERVIEW_SIZE[1]
+    overview = frames[:, : OVERVIEW_SIZE[0], : OVERVIEW_SIZE[1]].astype(np.int16)
+    assert overview[0].std() > 20  # a rendered scene, not a blank image
+    # robots drive: the overview changes between the first and the last frame
+    assert np.abs(overview[-1] - overview[0]).mean() > 0.5
+
+
+def test_water_filling_video_shows_both_robots(tmp_path):
+    env = make_env("water_filling", "continue", seed=0, overrides={"max_ticks": 6})
+    try:
+        result = record_episode(env, RandomPolicy(env.spec, 0), tmp_path / "wf.mp4", seed=0)
+    finally:
+        env.close()
+    frames = _read(result.path)
+    assert frames.shape == (7, *result.shape)
+    tiles = frames[:, OVERVIEW_SIZE[0] + CAPTION :].astype(np.int16)
+    assert tiles[0].std() > 10  # the robots' camera tiles are rendered
+
+
+def test_same_seed_gives_the_same_video(tmp_path):
+    digests = []
+    for name in ("a.mp4", "b.mp4"):
+        env = _short_env()
+        try:
+            record_episode(env, RandomPolicy(env.spec, 7), tmp_path / name, seed=7)
+        finally:
+            env.close()
+        digests.append(hashlib.sha256((tmp_path / name).read_bytes()).hexdigest())
+    assert digests[0] == digests[1]
+
+
+def test_caption_highlights_agents_that_start_an_option():
+    env = _short_env()
+    try:
+        composer = FrameComposer(env.task, env.spec.agent_names, title="t", max_ticks=12)
+        try:
+            base = dict(
+                tick=3, ret=-3.0, reward=-1.0, options=["GoToWS", "GetTool", "Wait"], state=["s"]
+            )
+            plain = composer.compose(Overlay(started=[False, False, False], **base))
+            marked = composer.compose(Overlay(started=[False, True, False], **base))
+        finally:
+            composer.close()
+    finally:
+        env.close()
+    assert plain.shape == composer.shape
+    caption = slice(OVERVIEW_SIZE[0] + GAP, OVERVIEW_SIZE[0] + GAP + CAPTION)
+
+    def yellow(frame):
+        return np.all(frame[caption] == HIGHLIGHT, axis=-1)
+
+    assert not yellow(plain).any()
+    cols = np.flatnonzero(yellow(marked).any(axis=0))
+    assert cols.size > 0
+    # only the second agent's caption (the middle tile) is highlighted
+    third = composer.width / 3
+    assert cols.min() > third * 0.9 and cols.max() < 2 * third * 1.1
+    # everything outside the captions (renders, panel) is identical
+    outside = np.ones(plain.shape[:2], bool)
+    outside[caption] = False
+    assert np.array_equal(plain[outside], marked[outside])
+
+
+def test_panel_shows_the_last_tick_reward():
+    """The last tick's reward is drawn in the side panel, and nowhere else."""
+    env = _short_env()
+    try:
+        composer = FrameComposer(env.task, env.spec.agent_names, title="t", max_ticks=12)
+        try:
+            base = dict(tick=3, ret=97.0, options=["-"] * 3, started=[False] * 3, state=["s"])
+            frames = [
+                composer.compose(Overlay(reward=reward, **base)) for reward in (-1.0, 99.0, None)
+            ]
+        finally:
+            composer.close()
+    finally:
+        env.close()
+    panel = np.zeros(frames[0].shape[:2], bool)
+    panel[: OVERVIEW_SIZE[0], OVERVIEW_SIZE[1] :] = True
+    for a, b in ((0, 1), (0, 2), (1, 2)):
+        assert not np.array_equal(frames[a][panel], frames[b][panel])
+        assert np.array_equal(frames[a][~panel], frames[b][~panel])
+
+
+def test_overlay_rewards_are_the_tick_rewards(tmp_path, monkeypatch):
+    """Per frame: the reward of its tick, and the return so far; they add up to the episode's."""
+    overlays = []
+    compose = FrameComposer.compose
+
+    def spy(self, overlay):
+        overlays.append(overlay)
+        return compose(self, overlay)
+
+    monkeypatch.setattr(FrameComposer, "compose", spy)
+    env = _short_env()
+    ticks = []
+    env.add_tick_listener(lambda _env, reward: ticks.append(reward))
+    try:
+        result = record_episode(env, RandomPolicy(env.spec, 1), tmp_path / "v.mp4", seed=1)
+    finally:
+        env.close()
+    assert len(overlays) == result.frames == len(ticks) + 1
+    assert [o.tick for o in overlays] == list(range(result.ticks + 1))
+    assert overlays[0].reward is None and overlays[0].ret == 0.0
+    rewards = [o.reward for o in overlays[1:]]
+    assert rewards == ticks
+    assert len(set(rewards)) > 1  # not a constant: the random episode has more than tick costs
+    assert [o.ret for o in overlays[1:]] == pytest.approx(np.cumsum(rewards).tolist())
+    assert sum(rewards) == pytest.approx(result.ret)
+    assert overlays[-1].ret == pytest.approx(result.ret)
+
+
+def test_state_lines():
+    lines = state_lines(
+        "tool_delivery",
+        {"human_stage": 1, "staged": [2], "carried": [[1], []], "delivered": [True, False, False]},
+    )
+    assert lines == [
+        "human stage 1 (needs tool 1)",
+        "staged on desk: [2]",
+        "turtlebot0 carries: [1]",
+        "turtlebot1 carries: []",
+        "delivered: t0=yes t1=no t2=no",
+    ]
+    assert generic_state_lines({"jar_levels": [0.5, 1.0, 0.125]}) == [
+        "jar levels: [0.50, 1.00, 0.12]"
+    ]
+    assert state_lines("other_task", {"ticks": 3}) == ["ticks: 3"]
+    wf = {"levels": [0.25, 1.0], "known_levels": [0.5, 1.0], "elapsed": [4, 0], "fills": 1}
+    assert state_lines("water_filling", wf) == [
+        "jar 0: level 0.25 (seen 0.50, 4 ticks ago)",
+        "jar 1: level 1.00 (seen 1.00, 0 ticks ago)",
+        "fills: 1",
+    ]
+
+
+def test_observation_lines_name_the_fields_and_wrap():
+    layout = ObsLayout.of(location=4, levels=2)
+    vector = np.array([0, 1, 0, 0, 0.5, -0.25], np.float32)
+    assert observation_lines("tb", layout, vector, lambda text: True) == [
+        "tb: location 0 1 0 0 levels 0.5 -0.25"
+    ]
+    narrow = observation_lines("tb", layout, vector, lambda text: len(text) <= 20)
+    assert narrow == ["tb: location 0 1 0 0", "  levels 0.5 -0.25"]
+    assert observation_lines("x", None, np.ones(2), lambda text: True) == ["x: obs 1 1"]
+
+
+def test_the_panel_lists_each_agents_observation(tmp_path, monkeypatch):
+    overlays = []
+    compose = FrameComposer.compose
+    monkeypatch.setattr(FrameComposer, "compose", lambda s, o: overlays.append(o) or compose(s, o))
+    env = _short_env()
+    try:
+        record_episode(env, RandomPolicy(env.spec, 1), tmp_path / "v.mp4", seed=1)
+        first = env.reset(seed=1)
+    finally:
+        env.close()
+    assert all(len(o.vectors) == 3 for o in overlays)
+    assert all(
+        np.array_equal(a, b) for a, b in zip(overlays[0].vectors, first.vectors, strict=True)
+    )
+
+
+def test_cli_records_the_scripted_episode(tmp_path, capsys):
+    out = tmp_path / "td.mp4"
+    from maopg.experiment.eval_cli import main
+
+    main(["video", "--reference", "scripted", "--task", "tool_delivery", "--out", str(out)])
+    assert "return 259.0 in 41 ticks" in capsys.readouterr().out
+    assert len(_read(out)) == 42
+
+
+def test_recording_does_not_change_the_episode(tmp_path):
+    """Under ``all`` (idling agents): same decisions, return and length as a plain rollout."""
+    env = make_env("tool_delivery", "all", seed=0, overrides={"max_ticks": 25})
+    try:
+        plain = run_episode(env, RandomPolicy(env.spec, 4), seed=2)
+        video = record_episode(env, RandomPolicy(env.spec, 4), tmp_path / "all.mp4", seed=2)
+    finally:
+        env.close()
+    assert (video.ret, video.ticks, video.solved) == (plain.ret, plain.ticks, plain.solved)
+    assert video.frames == plain.ticks + 1

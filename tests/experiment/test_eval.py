@@ -1,0 +1,386 @@
+"""Evaluation tools: tables and plots on fabricated and real run directories, checkpoint
+evaluation and videos, and the resumable reproduction grid."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from pathlib import Path
+
+import imageio.v2 as imageio
+import numpy as np
+import pytest
+
+from maopg.env.rollout import run_episode
+from maopg.experiment.eval_cli import main
+from maopg.experiment.evaluate import evaluate
+from maopg.experiment.loading import load_trained
+from maopg.experiment.plots import curve_table, plot_all
+from maopg.experiment.reproduce import (
+    Cell,
+    _train_args,
+    cell_state,
+    code_digest,
+    reproduce,
+    run_grid,
+)
+from maopg.experiment.run_dir import DONE, FINAL
+from maopg.experiment.runs import (
+    discover_runs,
+    final,
+    load_run,
+    mean_curve,
+    peak,
+    samples_to_threshold,
+    trailing_mean,
+)
+from maopg.experiment.tables import peak_table, threshold_table
+from maopg.experiment.train_cli import main as train_main
+from maopg.policy import DistributionActor, QActor
+from maopg.tasks import task_entry
+
+RUN = ["batch_ticks=60", "num_envs=2", "checkpoint_every=1", "env.max_ticks=40", "video=false"]
+TINY = [*RUN, "ppo.epochs=2"]
+TINY_DQN = [*RUN, "dqn.learning_starts=60", "dqn.train_every=20"]
+NAN = math.nan
+
+
+def _fake_run(
+    root: Path, task: str, method: str, seed: int, samples, returns, paper=None, finished=True
+):
+    """A run directory as the trainer writes it, with known numbers."""
+    run_dir = root / task / method / f"seed{seed}"
+    run_dir.mkdir(parents=True)
+    (run_dir / "config.json").write_text(json.dumps({"task": task, "method": method, "seed": seed}))
+    paper = paper if paper is not None else [r / 10 if not math.isnan(r) else -1 for r in returns]
+    with (run_dir / "metrics.csv").open("w", newline="") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(["iteration", "samples", "episode_return", "option_step_reward"])
+        for k, (s, r, p) in enumerate(zip(samples, returns, paper, strict=True), 1):
+            writer.writerow([k, s, "nan" if math.isnan(r) else repr(r), repr(p)])
+    if finished:
+        (run_dir / DONE).write_text("{}")
+    return run_dir
+
+
+@pytest.fixture
+def fabricated(tmp_path):
+    root = tmp_path / "runs"
+    # async: seed 0 peaks at 220 (reaches 200 at 300 samples), seed 1 peaks at 180 (never).
+    _fake_run(root, "tool_delivery", "async", 0, [100, 200, 300, 400], [NAN, 50.0, 210.0, 220.0])
+    _fake_run(root, "tool_delivery", "async", 1, [100, 200, 300, 400], [-20.0, 80.0, 180.0, 150.0])
+    # sync-cut: both seeds reach 200 (at 400 and 200 samples).
+    _fake_run(root, "tool_delivery", "sync-cut", 0, [100, 200, 300, 400], [0.0, 10.0, 90.0, 205.0])
+    _fake_run(root, "tool_delivery", "sync-cut", 1, [100, 200, 300, 400], [0.0, 250.0, 240.0, 0.0])
+    return root
+
+
+def test_trailing_mean_and_curve_statistics(fabricated):
+    assert np.allclose(trailing_mean(np.array([1.0, 3.0, 5.0, 7.0]), 2), [1.0, 2.0, 4.0, 6.0])
+    runs = discover_runs([fabricated])
+    assert [(r.method, r.seed) for r in runs] == [
+        ("async", 0),
+        ("async", 1),
+        ("sync-cut", 0),
+        ("sync-cut", 1),
+    ]
+    a0, a1 = runs[0], runs[1]
+    samples, values = a0.curve()
+    assert samples.tolist() == [200, 300, 400] and values.tolist() == [50, 210, 220]
+    assert peak(a0) == 220 and peak(a0, window=2) == 215
+    assert samples_to_threshold(a0, 200) == 300 and math.isnan(samples_to_threshold(a1, 200))
+    grid, mean, std = mean_curve([a0, a1], points=3)
+    # the range both seeds cover, 200..400 (seed 0 has no return at 100); at 300 (210 + 180) / 2
+    assert grid.tolist() == [200, 300, 400]
+    assert mean.tolist() == [65.0, 195.0, 185.0] and std.tolist() == [15.0, 15.0, 35.0]
+    # seeds whose reported ranges do not meet give no curve, not an error
+    early = _fake_run(fabricated, "water_filling", "async", 0, [100, 200], [1.0, 3.0])
+    late = _fake_run(fabricated, "water_filling", "async", 1, [300, 400], [5.0, 7.0])
+    assert all(a.size == 0 for a in mean_curve(discover_runs([early, late])))
+
+
+def test_tables_on_fabricated_runs(fabricated):
+    runs = discover_runs([fabricated])
+    table = peak_table(runs, window=1)
+    lines = table.splitlines()
+    # final = the last 10% of samples (> 360: the iteration at 400): async 220 and 150
+    assert lines[2] == (
+        "| tool_delivery | async | 2 | 200.0 ± 20.0 | 185.0 ± 35.0 | 20.00 ± 2.00 | 400 ± 0 |"
+    )
+    assert lines[3] == (
+        "| tool_delivery | sync-cut | 2 | 227.5 ± 22.5 | 102.5 ± 102.5 | 22.75 ± 2.25 | 400 ± 0 |"
+    )
+    thresholds = threshold_table(runs, {"tool_delivery": 200}, window=1).splitlines()
+    assert thresholds[2] == "| tool_delivery | async | 200 | 300 | 1/2 |"
+    assert thresholds[3] == "| tool_delivery | sync-cut | 200 | 300 ± 100 | 2/2 |"
+    # smoothing over 2 iterations: async seed 0 peaks at (210 + 220) / 2
+    smoothed = peak_table(runs, window=2, methods=["sync-cut", "async"]).splitlines()
+    assert smoothed[2].startswith("| tool_delivery | sync-cut |")
+    assert "| 190.0 ± 25.0 |" in smoothed[3]
+    unknown = threshold_table(
+        [r for r in runs if r.method == "async"], {"tool_delivery": 1e9}, window=1
+    )
+    assert "| — | 0/2 |" in unknown
+
+
+def test_unfinished_runs_stay_out_of_statistics_unless_asked_for(fabricated):
+    """A seed in progress would shorten its method's common curve range and lower its peak;
+    a run killed before its first iteration has a header-only metrics.csv."""
+    _fake_run(fabricated, "tool_delivery", "async", 2, [100], [-50.0], finished=False)
+    starting = _fake_run(fabricated, "tool_delivery", "async", 3, [], [], finished=False)
+    assert load_run(starting).samples.size == 0 and math.isnan(final(load_run(starting)))
+    assert [r.seed for r in discover_runs([fabricated]) if r.method == "async"] == [0, 1]
+    every = discover_runs([fabricated], unfinished=True)
+    assert [r.seed for r in every if r.method == "async"] == [0, 1, 2, 3]
+    table = peak_table(every, methods=["async"]).splitlines()
+    # seed 3 reported nothing yet: it counts as a seed but adds no value (peaks 220, 180, -50)
+    assert table[2].startswith("| tool_delivery | async | 4 (2 unfinished) | 116.7 ± 119.0 |")
+    one = peak_table([r for r in every if r.seed == 2]).splitlines()
+    assert one[2] == "| tool_delivery | async | 1 (1 unfinished) | -50.0 | -50.0 | -5.00 | 100 |"
+    assert "| 20.00 ± 2.00 |" in peak_table(discover_runs([fabricated]), methods=["async"])
+
+
+def test_table_and_plot_commands(fabricated, tmp_path, capsys):
+    out_md = tmp_path / "t.md"
+    assert main(["table", str(fabricated), "--window", "1", "--out", str(out_md)]) == 0
+    printed = capsys.readouterr().out
+    assert "| tool_delivery | async | 200 | 300 | 1/2 |" in printed
+    assert out_md.read_text() in printed
+    assert main(["plot", str(fabricated), "--out", str(tmp_path / "fig"), "--window", "1"]) == 0
+    png, svg = (
+        tmp_path / "fig" / "curves_tool_delivery.png",
+        tmp_path / "fig/curves_tool_delivery.svg",
+    )
+    image = imageio.imread(png)
+    assert image.ndim == 3 and image.shape[0] > 300 and image.shape[1] > 500
+    text = svg.read_text()
+    assert "async (2 seeds)" in text and "sync-cut (2 seeds)" in text
+    first = png.read_bytes(), text
+    assert main(["plot", str(fabricated), "--out", str(tmp_path / "fig"), "--window", "1"]) == 0
+    assert (png.read_bytes(), svg.read_text()) == first  # redrawn byte for byte
+    assert "low-level samples (ticks)" in text
+    csv_text = curve_table(discover_runs([fabricated]), window=1).splitlines()
+    assert csv_text[0] == "method,samples,mean,std,seeds"
+    assert "async,200,65.0000,15.0000,2" in csv_text
+
+
+# ----------------------------------------------------------------------------- real runs
+@pytest.fixture(scope="module")
+def trained_run(tmp_path_factory):
+    run_dir = tmp_path_factory.mktemp("real") / "tool_delivery" / "async" / "seed0"
+    args = ["--task", "tool_delivery", "--method", "async", "--seed", "0"]
+    train_main(
+        [*args, "--total-samples", "180", "--run-dir", str(run_dir), "progress=false", *TINY]
+    )
+    return run_dir
+
+
+def test_evaluate_a_checkpoint(trained_run, tmp_path, capsys):
+    trained = load_trained(trained_run)
+    assert trained.path.name == "final.pt" and trained.config.method == "async"
+    env = trained.make_env(0)
+    try:
+        first = evaluate(env, DistributionActor(trained.policy), 3, seed=5)
+        again = evaluate(env, DistributionActor(trained.policy), 3, seed=5)
+        sampled = evaluate(env, DistributionActor(trained.policy, greedy=False, seed=1), 3, seed=5)
+    finally:
+        env.close()
+    assert first.returns == again.returns and first.lengths == again.lengths
+    assert all(0 < n <= 40 for n in first.lengths + sampled.lengths)
+    # the paper's metric averages the decision steps' rewards, whose sum is the return
+    assert sum(first.option_step_rewards) == pytest.approx(sum(first.returns))
+    s = sampled.summary
+    assert s["episodes"] == 3 and 0.0 <= s["success_rate"] <= 1.0
+    assert s["return_mean"] == pytest.approx(np.mean(sampled.returns))
+
+    # option choices: one per choosing agent per decision point, named by the agent's options
+    env = trained.make_env(0)
+    try:
+        choosing = []
+        policy = DistributionActor(trained.policy)
+        run_episode(env, lambda p: (choosing.append(p.choosing.copy()), policy(p))[1], seed=5)
+        one = evaluate(env, DistributionActor(trained.policy), 1, seed=5)
+    finally:
+        env.close()
+    counts = {a.name: int(np.sum([c[i] for c in choosing])) for i, a in enumerate(env.spec.agents)}
+    assert {name: sum(c.values()) for name, c in one.choices.items()} == counts
+    fetch = env.spec.agents[2]
+    assert set(one.choices[fetch.name]) <= set(fetch.option_names)
+
+    out = tmp_path / "e.json"
+    main(["evaluate", "--checkpoint", str(trained_run), "--episodes", "2", "--json", str(out)])
+    printed = capsys.readouterr().out
+    assert "| async seed0 @" in printed and f"\n{fetch.name}: " in printed
+    saved = json.loads(out.read_text())
+    assert saved["episodes"] == 2 and len(saved["per_episode"]["returns"]) == 2
+
+
+def test_evaluate_a_mac_dqn_checkpoint_made_by_the_grid(tmp_path, capsys):
+    cell = Cell("tool_delivery", "mac-dqn", 0)
+    grid = dict(tasks=["tool_delivery"], methods=["mac-dqn"], seeds=[0], in_process=True)
+    outcomes = run_grid(tmp_path, overrides=[*TINY_DQN, "total_samples=120"], **grid)
+    assert outcomes == {cell: "done"}
+    run_dir = cell.run_dir(tmp_path.resolve())
+    assert not (run_dir / "rollout.mp4").exists()  # the grid records no videos
+
+    trained = load_trained(run_dir)
+    assert trained.config.method == "mac-dqn" and trained.samples >= 120
+    greedy = trained.actor(greedy=True)
+    assert isinstance(greedy, QActor) and greedy.epsilon == 0.0
+    env = trained.make_env(0)
+    try:
+        first = evaluate(env, greedy, 3, seed=5)
+        again = evaluate(env, trained.actor(greedy=True), 3, seed=5)
+        explore = evaluate(env, trained.actor(greedy=False, seed=1), 3, seed=5)
+    finally:
+        env.close()
+    assert first.returns == again.returns and first.lengths == again.lengths
+    assert all(0 < n <= 40 for n in first.lengths + explore.lengths)
+    assert trained.actor(greedy=False).epsilon == trained.config.learner.eps_end
+
+    main(["evaluate", "--checkpoint", str(run_dir), "--episodes", "2", "--sample"])
+    assert "| mac-dqn seed0 @" in capsys.readouterr().out
+
+
+def _frames(path: Path) -> list[np.ndarray]:
+    reader = imageio.get_reader(path)
+    try:
+        return list(reader.iter_data())
+    finally:
+        reader.close()
+
+
+def test_video_of_a_checkpoint(trained_run, tmp_path, capsys):
+    out = tmp_path / "trained.mp4"
+    main(["video", "--checkpoint", str(trained_run), "--out", str(out), "--seed", "3"])
+    printed = capsys.readouterr().out
+    ticks = int(printed.split(" in ")[1].split(" ticks")[0])
+    assert len(_frames(out)) == ticks + 1
+    # sampled options are seeded too: the same seed films the same episode
+    args = ["video", "--checkpoint", str(trained_run), "--sample", "--seed", "4", "--out"]
+    main([*args, str(tmp_path / "a.mp4")])
+    main([*args, str(tmp_path / "b.mp4")])
+    a, b = _frames(tmp_path / "a.mp4"), _frames(tmp_path / "b.mp4")
+    assert len(a) == len(b) and all(np.array_equal(x, y) for x, y in zip(a, b, strict=True))
+
+
+def test_table_and_plot_commands_on_a_real_run(trained_run, tmp_path, capsys):
+    runs = discover_runs([trained_run.parents[2]])
+    assert len(runs) == 1 and runs[0].finished and runs[0].samples[-1] >= 180
+    root = str(trained_run.parents[2])
+    assert main(["table", root, "--window", "1"]) == 0
+    printed = capsys.readouterr().out
+    peak_return = peak(runs[0])
+    assert f"| tool_delivery | async | 1 | {peak_return:.1f} |" in printed
+    assert main(["plot", root, "--out", str(tmp_path)]) == 0
+    assert "async (1 seed)" in (tmp_path / "curves_tool_delivery.svg").read_text()
+    assert imageio.imread(tmp_path / "curves_tool_delivery.png").ndim == 3
+    assert [p.suffix for p in plot_all(runs, tmp_path)] == [".png", ".svg"]
+
+
+# ----------------------------------------------------------------------------- the grid
+def test_grid_skips_finished_runs_and_resumes_unfinished_ones(tmp_path):
+    runs_root, results = tmp_path / "runs", tmp_path / "results"
+    overrides = [*TINY, "total_samples=120"]
+    grid = dict(tasks=["tool_delivery"], seeds=[0, 1], overrides=overrides, in_process=True)
+
+    # seed 0 finished earlier; seed 1 was cut off after its first iteration (60 samples)
+    outcomes = run_grid(runs_root, methods=["async"], **{**grid, "seeds": [0]})
+    assert outcomes == {Cell("tool_delivery", "async", 0): "done"}
+    seed0 = Cell("tool_delivery", "async", 0).run_dir(runs_root.resolve())
+    finished_at = (seed0 / FINAL).stat().st_mtime_ns
+    seed1 = Cell("tool_delivery", "async", 1).run_dir(runs_root.resolve())
+    args = ["--task", "tool_delivery", "--method", "async", "--seed", "1", "--run-dir"]
+    train_main([*args, str(seed1), "progress=false", *TINY, "total_samples=60"])
+    (seed1 / FINAL).unlink()
+    (seed1 / DONE).unlink()
+    first_row = (seed1 / "metrics.csv").read_text().splitlines()[1]
+    assert cell_state(seed0) == "finished" and cell_state(seed1) == "partial"
+
+    dry = run_grid(runs_root, methods=["async"], dry_run=True, log=lambda _: None, **grid)
+    assert list(dry.values()) == ["skipped", "would resume"]
+
+    with pytest.raises(ValueError, match="unknown method"):  # a typo is not an empty grid
+        run_grid(runs_root, methods=["async", "asnyc"], **grid)
+    with pytest.raises(SystemExit):
+        main(["reproduce", "--runs", str(runs_root), "--methods", "asnyc", "--dry-run"])
+    outcomes, written = reproduce(runs_root, results, methods=["async"], **grid)
+    assert outcomes == {
+        Cell("tool_delivery", "async", 0): "skipped",
+        Cell("tool_delivery", "async", 1): "done",
+    }
+    assert (seed0 / FINAL).stat().st_mtime_ns == finished_at  # not retrained
+    rows = (seed1 / "metrics.csv").read_text().splitlines()
+    assert rows[1] == first_row  # continued from its checkpoint, not restarted
+    assert int(rows[-1].split(",")[1]) >= 120 and cell_state(seed1) == "finished"
+    names = {p.name for p in written}
+    assert {"curves_tool_delivery.png", "fig4_tool_delivery.svg", "tables.md"} <= names
+    tables = (results / "tables.md").read_text()
+    assert "| tool_delivery | async | 2 |" in tables
+    assert "Table I analog" in tables and "Table II analog" in tables
+
+    # a second invocation has nothing left to train
+    again = run_grid(runs_root, methods=["async"], log=lambda _: None, **grid)
+    assert set(again.values()) == {"skipped"}
+
+    # the command regenerates the results, evaluation included, without training
+    argv = ["reproduce", "--runs", str(runs_root), "--results", str(results), "--no-train"]
+    argv += ["--reference-episodes", "1"]
+    (results / "tables.md").unlink()
+    assert main([*argv, "--tasks", "tool_delivery", "--eval-episodes", "1"]) == 0
+    assert (results / "tables.md").read_text() == tables
+    evaluation = (results / "evaluation.md").read_text()
+    for strategy in ("continue", "any", "all"):
+        assert f"| scripted | tool_delivery | {strategy} | 1 |" in evaluation
+        assert f"| random | tool_delivery | {strategy} | 1 |" in evaluation
+    assert "| async seed0 greedy | tool_delivery | continue | 1 |" in evaluation
+    assert "| async seed0 sampled | tool_delivery | continue | 1 |" in evaluation
+    # evaluations are cached per run, keyed on the code and the weights they were made with
+    cache = seed0 / "evaluation.json"
+    cached = json.loads(cache.read_text())
+    assert cached["key"]["code"] == code_digest()
+    cached["results"][0]["label"] = "from the cache"
+    cache.write_text(json.dumps(cached))
+    assert main([*argv, "--eval-episodes", "1"]) == 0
+    assert "| from the cache |" in (results / "evaluation.md").read_text()
+    cached["key"]["weights"] = "0" * 64  # as if final.pt had been retrained since
+    cache.write_text(json.dumps(cached))
+    assert main([*argv, "--eval-episodes", "1"]) == 0
+    assert "| from the cache |" not in (results / "evaluation.md").read_text()
+    # ... and redone for another episode count
+    assert main([*argv, "--eval-episodes", "2"]) == 0
+    assert (
+        "| async seed0 greedy | tool_delivery | continue | 2 |"
+        in (results / "evaluation.md").read_text()
+    )
+
+
+def test_the_default_grid_is_the_committed_one(tmp_path):
+    """Per-task seeds (Water Filling: 3) and Water Filling Mac-DQN's smaller replay."""
+    dry = run_grid(tmp_path, methods=["async", "mac-dqn"], dry_run=True, log=lambda _: None)
+    for task in ("tool_delivery", "water_filling"):
+        seeds = sorted({c.seed for c in dry if c.task == task})
+        assert seeds == list(task_entry(task).grid_seeds)
+    assert set(dry.values()) == {"would start"}
+    wf = _train_args(Cell("water_filling", "mac-dqn", 0), tmp_path, ["dqn.buffer_size=20000"])
+    assert wf[-2:] == ["dqn.buffer_size=10000", "dqn.buffer_size=20000"]  # the user's wins
+    assert "dqn.buffer_size=10000" not in _train_args(
+        Cell("tool_delivery", "mac-dqn", 0), tmp_path, []
+    )
+
+
+def test_grid_runs_train_as_a_subprocess(tmp_path):
+    outcomes = run_grid(
+        tmp_path,
+        tasks=["tool_delivery"],
+        methods=["sync-wait"],
+        seeds=[3],
+        overrides=[*TINY, "total_samples=60"],
+        log=lambda _: None,
+    )
+    assert outcomes == {Cell("tool_delivery", "sync-wait", 3): "done"}
+    run_dir = Cell("tool_delivery", "sync-wait", 3).run_dir(tmp_path.resolve())
+    config = json.loads((run_dir / "config.json").read_text())
+    assert (config["method"], config["seed"], config["batch_ticks"]) == ("sync-wait", 3, 60)
+    assert cell_state(run_dir) == "finished"

@@ -1,0 +1,39 @@
+"""Learning smoke: ``async`` MAPPO on Tool Delivery (state observations) learns, seeded.
+
+The paper's method reaches its peak in ~50K samples; 25K low-level samples (≈ 30 s here) are
+enough to leave the uniform-random policy (≈ −66 on the canonical task) far behind.
+"""
+
+import numpy as np
+import pytest
+
+from maopg.env.rollout import evaluate_reference
+from maopg.experiment.config import TrainConfig
+from maopg.experiment.run_dir import read_metrics
+from maopg.experiment.trainer import train
+
+BUDGET = 25_000
+
+
+@pytest.mark.slow
+def test_async_beats_the_random_policy_by_a_wide_margin(tmp_path):
+    random_returns = [r.ret for r in evaluate_reference("tool_delivery", "random", 40, seed=0)]
+    random_mean = float(np.mean(random_returns))
+
+    config = TrainConfig(
+        task="tool_delivery",
+        method="async",
+        seed=0,
+        total_samples=BUDGET,
+        progress=False,
+        run_dir=str(tmp_path / "run"),
+    )
+    rows = read_metrics(train(config) / "metrics.csv")
+    # Episode-weighted mean return over the last fifth of training.
+    late = [r for r in rows if int(r["samples"]) > 0.8 * BUDGET and int(r["episodes"]) > 0]
+    episodes = np.array([int(r["episodes"]) for r in late])
+    returns = np.array([float(r["episode_return"]) for r in late])
+    trained_mean = float((episodes * returns).sum() / episodes.sum())
+
+    assert episodes.sum() >= 20
+    assert trained_mean > random_mean + 200, (trained_mean, random_mean)

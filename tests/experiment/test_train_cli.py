@@ -1,0 +1,239 @@
+"""The ``train`` command line on the real tasks: every method (MAPPO's and Mac-DQN), resume after
+a kill, the rollout video, bad input."""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import imageio.v2 as imageio
+import pytest
+
+from maopg.env.rollout import run_episode
+from maopg.experiment.config import TrainConfig, parse_overrides
+from maopg.experiment.loading import load_trained
+from maopg.experiment.methods import get_method, method_names
+from maopg.experiment.run_dir import TIMING_COLUMNS
+from maopg.experiment.train_cli import main, parse_args
+from maopg.learner import CheckpointError, MacDQNConfig, PPOConfig, load_checkpoint
+from maopg.tasks import task_names
+
+REPO = Path(__file__).resolve().parents[2]
+RUN = ["batch_ticks=60", "num_envs=2", "progress=false", "video=false", "checkpoint_every=2"]
+SECTION = {"ppo": ["ppo.epochs=2"], "dqn": ["dqn.learning_starts=40", "dqn.train_every=20"]}
+
+
+def tiny(method: str = "async") -> list[str]:
+    """A few-second run of ``method``: small batches, and its learner's section shortened."""
+    return ["--method", method, *RUN, *SECTION[get_method(method).section]]
+
+
+TINY = tiny()
+
+
+def _rows(run_dir: Path) -> list[dict[str, str]]:
+    with (run_dir / "metrics.csv").open() as handle:
+        return list(csv.DictReader(handle))
+
+
+def _deterministic(rows: list[dict[str, str]]) -> list[dict[str, str]]:
+    return [{k: v for k, v in r.items() if k not in TIMING_COLUMNS} for r in rows]
+
+
+def test_overrides_are_typed_and_checked(capsys):
+    values = parse_overrides(
+        [
+            "ppo.epochs=5",
+            "ppo.lr=1e-3",
+            "images=false",
+            "total_samples=2_000",
+            "env.max_ticks=50",
+        ],
+        "async",
+    )
+    assert values == {
+        "ppo": {"epochs": 5, "lr": 1e-3},
+        "images": False,
+        "total_samples": 2000,
+        "env_overrides": {"max_ticks": 50},
+    }
+    dqn = parse_overrides(["dqn.lr=2e-4", "dqn.recurrent=yes"], "mac-dqn")
+    assert dqn == {"dqn": {"lr": 2e-4, "recurrent": True}}
+    with pytest.raises(ValueError, match="unknown config key 'epoch'"):
+        parse_overrides(["epoch=5"], "async")
+    with pytest.raises(ValueError, match=r"unknown config key 'dqn\.epochs'"):
+        parse_overrides(["dqn.epochs=5"], "mac-dqn")
+    with pytest.raises(ValueError, match="reads the 'ppo' section, not 'dqn'"):
+        parse_overrides(["dqn.lr=1e-3"], "async")
+    with pytest.raises(ValueError, match="expected int"):
+        parse_overrides(["ppo.epochs=many"], "async")
+    config, _ = parse_args(["--method", "mac-dqn", "dqn.train_every=7"])
+    assert (
+        config.learner == MacDQNConfig(train_every=7) and config.resolved().strategy == "continue"
+    )
+    assert TrainConfig.from_dict(config.to_dict()) == config
+    assert "ppo" not in config.to_dict() and config.to_dict()["dqn"]["train_every"] == 7
+    config, _ = parse_args(["--method", "sync-wait", "--seed", "3", "ppo.discount=option"])
+    resolved = config.resolved()
+    assert resolved.strategy == "all" and get_method("sync-wait").learner.section == "ppo"
+    assert resolved.batch_ticks == 200 and resolved.learner.discount == "option"
+    assert resolved.run_dir == os.path.join("runs", "tool_delivery", "sync-wait", "seed3")
+    with pytest.raises(ValueError, match="unknown method"):
+        TrainConfig(method="nope").resolved()
+
+
+@pytest.mark.parametrize(("task", "images"), [("tool_delivery", True), ("water_filling", False)])
+def test_each_task_also_trains_from_its_other_observation_kind(tmp_path, task, images):
+    """Tool Delivery defaults to state vectors and Water Filling to RGB; both switch."""
+    run_dir = tmp_path / "run"
+    flag = "--images" if images else "--no-images"
+    args = ["--task", task, "--method", "async", flag, "--total-samples", "120"]
+    main([*args, "--run-dir", str(run_dir), *TINY, "env.max_ticks=40"])
+    final = load_checkpoint(run_dir / "final.pt")
+    assert final["config"]["images"] is images
+    assert int(_rows(run_dir)[-1]["samples"]) >= 120
+
+
+def test_flat_mappo_keys_are_deprecated_aliases_and_old_configs_load(capsys):
+    config, _ = parse_args(["--method", "async", "epochs=3", "lr=1e-3"])
+    assert config.learner == PPOConfig(epochs=3, lr=1e-3)
+    assert "deprecated" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        parse_args(["--method", "mac-dqn", "epochs=3"])  # Mac-DQN has no MAPPO section
+    # a config.json written before sections existed: flat MAPPO keys, a dqn section everywhere
+    legacy = {**TrainConfig().to_dict(), "epochs": 7, "discount": "option", "dqn": {"lr": 1.0}}
+    del legacy["ppo"]
+    assert TrainConfig.from_dict(legacy).learner == PPOConfig(epochs=7, discount="option")
+    legacy_dqn = {**legacy, "method": "mac-dqn"}
+    assert TrainConfig.from_dict(legacy_dqn).learner == MacDQNConfig(lr=1.0)
+
+
+@pytest.mark.parametrize("method", method_names())
+@pytest.mark.parametrize("task", task_names())
+def test_every_method_trains_a_tiny_budget(tmp_path, task, method):
+    run_dir = tmp_path / method
+    task = ["--task", task, "--seed", "0", *tiny(method)]
+    # 40-tick episodes: some end in the budget, so Mac-DQN's replay can serve updates
+    main([*task, "--total-samples", "120", "--run-dir", str(run_dir), "env.max_ticks=40"])
+    rows = _rows(run_dir)
+    assert len(rows) >= 2 and list(rows[0]) == list(get_method(method).columns)
+    assert int(rows[-1]["samples"]) >= 120
+    for row in rows:
+        assert int(row["option_steps"]) > 0
+        assert float(row["samples_per_s"]) > 0
+        if method == "mac-dqn":
+            assert 0 < float(row["epsilon"]) <= 1
+        else:
+            assert float(row["entropy"]) >= 0
+    for name in ("config.json", "checkpoint.pt", "final.pt", "learning_curve.png"):
+        assert (run_dir / name).is_file(), name
+    assert not (run_dir / "rollout.mp4").exists()  # video=false
+    assert any((run_dir / "tb").iterdir())
+    final = load_checkpoint(run_dir / "final.pt")
+    assert final["config"]["method"] == method
+    assert final["samples"] == int(rows[-1]["samples"])
+    if method == "mac-dqn":
+        assert int(rows[-1]["updates"]) > 0 and float(rows[-1]["loss"]) >= 0
+        # resuming a finished run with a larger budget continues it
+        main(["--resume", "--run-dir", str(run_dir), "--total-samples", "180", "progress=false"])
+        resumed = _rows(run_dir)
+        assert resumed[: len(rows)] == rows and int(resumed[-1]["samples"]) >= 180
+        assert int(resumed[-1]["updates"]) > int(rows[-1]["updates"])
+        assert json.loads((run_dir / "done.json").read_text())["samples"] >= 180
+
+
+def test_kill_and_resume_reproduces_the_uninterrupted_run(tmp_path):
+    common = ["--seed", "5", "--total-samples", "1200", *TINY]
+    reference = tmp_path / "reference"
+    main([*common, "--run-dir", str(reference)])
+
+    killed = tmp_path / "killed"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "train", *common, "--run-dir", str(killed)],
+        cwd=REPO,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+    )
+    deadline = time.monotonic() + 120
+    while not (killed / "checkpoint.pt").exists():
+        assert proc.poll() is None, proc.stderr.read().decode()
+        assert time.monotonic() < deadline, "no checkpoint within 120 s"
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    interrupted_rows = len(_rows(killed))
+    assert interrupted_rows < len(_rows(reference)), "the run finished before it was killed"
+    assert not (killed / "final.pt").exists() and not (killed / "done.json").exists()
+
+    main(["--resume", "--run-dir", str(killed), "progress=false"])
+    assert _deterministic(_rows(killed)) == _deterministic(_rows(reference))
+    assert json.loads((killed / "done.json").read_text())["samples"] >= 1200
+
+
+def test_worker_processes_give_the_same_curve_as_in_process(tmp_path):
+    common = ["--seed", "2", "--total-samples", "240", *TINY]
+    main([*common, "--run-dir", str(tmp_path / "serial"), "backend=local"])
+    main([*common, "--run-dir", str(tmp_path / "workers"), "backend=processes", "num_workers=2"])
+    serial = _deterministic(_rows(tmp_path / "serial"))
+    assert serial == _deterministic(_rows(tmp_path / "workers"))
+
+
+def test_existing_run_needs_resume_and_corrupt_checkpoint_is_named(tmp_path):
+    run_dir = tmp_path / "run"
+    args = ["--total-samples", "60", "--run-dir", str(run_dir), *TINY]
+    main(args)
+    with pytest.raises(FileExistsError, match="--resume"):
+        main(args)
+    # a finished run resumes as a no-op, even where its checkpoint is gone (a fresh clone)
+    checkpoint = run_dir / "checkpoint.pt"
+    saved = checkpoint.read_bytes()
+    checkpoint.unlink()
+    metrics = (run_dir / "metrics.csv").read_text()
+    main(["--resume", "--run-dir", str(run_dir), "progress=false"])
+    assert (run_dir / "metrics.csv").read_text() == metrics and not checkpoint.exists()
+    checkpoint.write_bytes(saved[:100])
+    with pytest.raises(CheckpointError, match=str(checkpoint)):
+        main(["--resume", "--run-dir", str(run_dir), "--total-samples", "200"])
+    # the failed extension left no final policy behind to be mistaken for its result
+    assert not (run_dir / "final.pt").exists() and not (run_dir / "done.json").exists()
+    with pytest.raises(ValueError, match="seed"):
+        main(["--resume", "--run-dir", str(run_dir), "--seed", "9"])
+
+
+@pytest.mark.parametrize("method", ["async", "mac-dqn"])
+def test_video_of_the_trained_policy(tmp_path, method):
+    """``video=true`` leaves the seed-0 episode of the policy saved in ``final.pt``, sampled as
+    in training (``video_sample=false``: greedy)."""
+    run_dir = tmp_path / method
+    args = ["--total-samples", "60", "--run-dir", str(run_dir), *tiny(method)]
+    main([*args, "video=true", "env.max_ticks=30"])
+    trained = load_trained(run_dir)
+    env = trained.make_env(0)
+    try:
+        episode = run_episode(env, trained.actor(greedy=False), seed=0)
+    finally:
+        env.close()
+    reader = imageio.get_reader(run_dir / "rollout.mp4")
+    try:
+        frames = [frame.shape for frame in reader.iter_data()]
+    finally:
+        reader.close()
+    assert len(frames) == episode.ticks + 1 and 0 < episode.ticks <= 30
+    assert len(set(frames)) == 1 and frames[0][0] >= 64 and frames[0][2] == 3
+
+
+def test_a_users_registered_task_gets_generic_defaults(tmp_path, monkeypatch):
+    from maopg.tasks import registry
+
+    monkeypatch.setattr(registry, "_TASKS", dict(registry._TASKS))
+    registry.register_task("my_delivery", "maopg.tasks.tool_delivery.task:ToolDelivery")
+    config = TrainConfig(task="my_delivery", total_samples=100, run_dir=str(tmp_path / "r"))
+    assert config.resolved().batch_ticks == 1000
+    with pytest.raises(ValueError, match="unknown task 'nope'"):
+        TrainConfig(task="nope").resolved()

@@ -1,0 +1,137 @@
+"""The contract every registered task meets: build, reset, spaces, a random episode under every
+strategy, determinism, a scripted policy if it declares one, and camera images.
+
+Parametrised over the registry, so a newly registered task is covered without a line here.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+
+from maopg.env import Strategy, make_env
+from maopg.env.pettingzoo import OptionParallelEnv
+from maopg.env.rollout import RandomPolicy, reference_policy, run_episode
+from maopg.env.video import state_lines
+from maopg.tasks import SceneTask, Task, TaskConfig, task_entry, task_names
+
+TASKS = task_names()
+MAX_TICKS = 60
+"""Short episodes: the contract is about shapes and invariants, not about solving the task."""
+
+
+def short_env(task: str, strategy: str = "continue", **kwargs):
+    return make_env(task, strategy, overrides={"max_ticks": MAX_TICKS}, **kwargs)
+
+
+@pytest.mark.parametrize("task", TASKS)
+def test_the_entry_resolves_to_the_task_and_its_config(task: str) -> None:
+    entry = task_entry(task)
+    cls = entry.task_class()
+    assert issubclass(cls, Task) and issubclass(entry.config_class(), TaskConfig)
+    assert cls.name == task, "rollouts and videos find the entry by the task's name"
+    assert all(isinstance(seed, int) for seed in entry.grid_seeds) and entry.grid_seeds
+
+
+@pytest.mark.parametrize("task", TASKS)
+def test_spec_spaces_and_the_reset_point_agree(task: str) -> None:
+    env = short_env(task)
+    try:
+        spec, point = env.spec, env.reset(seed=0)
+        assert spec.task == task and spec.num_agents == len(env.task.agent_names) >= 1
+        assert spec.image_shape is None and point.images is None
+        for i, agent in enumerate(spec.agents):
+            assert agent.layout is not None and agent.layout.size == agent.vector_size
+            assert len(set(agent.option_names)) == agent.num_options >= 1, "names are unique"
+            assert all(agent.option_index(n) == k for k, n in enumerate(agent.option_names))
+            vector = point.vectors[i]
+            assert vector.shape == (agent.vector_size,) and vector.dtype == np.float32
+            assert np.isfinite(vector).all()
+            mask = point.available[i]
+            assert mask.shape == (agent.num_options,) and mask.dtype == bool and mask.any()
+        assert point.choosing.all() and (point.running == -1).all()
+        assert point.duration == 0 and point.ticks == 0 and not point.done
+        parallel = OptionParallelEnv(env)
+        observations, _ = parallel.reset(seed=0)
+        for name, obs in observations.items():
+            assert parallel.observation_space(name).contains(obs), name
+        lines = state_lines(task, env.task.describe())
+        assert lines and all(isinstance(line, str) for line in lines)
+    finally:
+        env.close()
+
+
+@pytest.mark.parametrize("strategy", [s.value for s in Strategy])
+@pytest.mark.parametrize("task", TASKS)
+def test_a_random_episode_keeps_the_contract(task: str, strategy: str) -> None:
+    env = short_env(task, strategy)
+    seen = []
+    try:
+        result = run_episode(env, RandomPolicy(env.spec, 0), seed=0, on_step=seen.append)
+    finally:
+        env.close()
+    last = seen[-1]
+    assert last.done and seen[0].ticks == 0 and not any(p.done for p in seen[:-1])
+    assert result.ticks == last.ticks <= MAX_TICKS and not (last.terminated and last.truncated)
+    assert last.terminated or last.ticks == MAX_TICKS
+    for prev, point in itertools.pairwise(seen):
+        assert point.duration >= 1 and point.ticks == prev.ticks + point.duration
+        assert np.isfinite(point.reward) and np.isfinite(point.discounted_reward)
+        assert point.done or point.choosing.any()
+        for vector, agent in zip(point.vectors, env.spec.agents, strict=True):
+            assert vector.shape == (agent.vector_size,) and np.isfinite(vector).all()
+        if strategy == "primitive":
+            assert point.duration == 1
+        if strategy in ("any", "all", "primitive") and not point.done:
+            assert point.choosing.all()
+    assert sum(result.rewards) == pytest.approx(result.ret)
+
+
+@pytest.mark.parametrize("task", TASKS)
+def test_the_same_seed_gives_the_same_trajectory(task: str) -> None:
+    def trajectory() -> list[tuple]:
+        env = short_env(task, "any")
+        points = []
+        try:
+            run_episode(env, RandomPolicy(env.spec, 3), seed=7, on_step=points.append)
+        finally:
+            env.close()
+        return [
+            (p.reward, p.ticks, p.running.tobytes(), *(v.tobytes() for v in p.vectors))
+            for p in points
+        ]
+
+    assert trajectory() == trajectory()
+
+
+@pytest.mark.parametrize("task", TASKS)
+def test_a_declared_scripted_policy_plays_options_and_refuses_primitives(task: str) -> None:
+    factory = task_entry(task).scripted_factory()
+    if factory is None:
+        pytest.skip(f"{task} declares no scripted policy")
+    env = short_env(task)
+    try:
+        result = run_episode(env, reference_policy("scripted", env), seed=0)
+        assert result.ticks <= MAX_TICKS and result.decisions >= 1
+        with pytest.raises(ValueError, match="primitive"):
+            factory(task_entry(task).config_class()(primitive=True))
+    finally:
+        env.close()
+
+
+@pytest.mark.parametrize("task", TASKS)
+def test_cameras_give_non_constant_images(task: str) -> None:
+    if not issubclass(task_entry(task).task_class(), SceneTask):
+        pytest.skip(f"{task} has no scene to render")
+    env = short_env(task, images=True, image_size=32)
+    try:
+        point = env.reset(seed=0)
+        n = env.spec.num_agents
+        assert env.spec.image_shape == (32, 32, 3)
+        assert point.images.shape == (n, 32, 32, 3) and point.images.dtype == np.uint8
+        for i, name in enumerate(env.spec.agent_names):
+            assert point.images[i].std() > 1.0, f"{name}'s camera image is flat"
+    finally:
+        env.close()

@@ -1,0 +1,89 @@
+"""The task registry: built-in entries, user registration, lazy imports and config checks."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import pytest
+
+from maopg.tasks import TaskEntry, make_config, register_task, registry, task_entry, task_names
+from maopg.tasks.tool_delivery.task import ToolDelivery
+
+
+@pytest.fixture
+def private_registry(monkeypatch):
+    """A copy of the registry, so tasks registered by a test do not outlive it."""
+    monkeypatch.setattr(registry, "_TASKS", dict(registry._TASKS))
+
+
+def test_built_in_tasks_declare_what_the_project_looks_up() -> None:
+    assert {"tool_delivery", "water_filling"} <= set(task_names())
+    td, wf = task_entry("tool_delivery"), task_entry("water_filling")
+    assert dict(td.train_defaults) == {
+        "batch_ticks": 200,
+        "total_samples": 100_000,
+        "images": False,
+    }
+    assert td.grid_seeds == (0, 1, 2, 3, 4) and td.threshold == 200.0 and not td.grid_overrides
+    assert dict(wf.train_defaults) == {
+        "batch_ticks": 2000,
+        "total_samples": 200_000,
+        "images": True,
+    }
+    assert wf.grid_seeds == (0, 1, 2) and wf.threshold == -300_000.0
+    assert dict(wf.grid_overrides) == {"mac-dqn": ("dqn.buffer_size=10000",)}
+    for entry in (td, wf):
+        assert callable(entry.scripted_factory()) and callable(entry.state_lines_fn())
+        assert entry.config_class() is entry.task_class().Config
+
+
+def test_importing_the_registry_imports_no_simulation_code() -> None:
+    code = (
+        "import sys, maopg.tasks as t; t.make_config('water_filling', {'max_ticks': 5}); "
+        "print(sorted(m for m in sys.modules if m.startswith('maopg.tasks.')"
+        " and m.endswith(('.task', '.scene', '.options', '.scripted'))))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
+
+
+def test_unknown_tasks_and_config_keys_are_named() -> None:
+    with pytest.raises(ValueError, match=r"unknown task 'nope'; known tasks: .*tool_delivery"):
+        task_entry("nope")
+    with pytest.raises(ValueError, match=r"unknown config key\(s\) \['max_tick'\].*valid keys"):
+        make_config("tool_delivery", {"max_tick": 3})
+    assert make_config("tool_delivery", {"max_ticks": 3}).max_ticks == 3
+
+
+@pytest.mark.usefixtures("private_registry")
+def test_a_users_task_registers_by_class_or_by_lazy_name() -> None:
+    entry = register_task("my_delivery", ToolDelivery, grid_seeds=(4, 5))
+    assert isinstance(entry, TaskEntry) and entry.config is ToolDelivery.Config
+    assert task_entry("my_delivery").grid_seeds == (4, 5) and "my_delivery" in task_names()
+    assert entry.scripted_factory() is None and entry.state_lines_fn() is None
+    lazy = register_task("lazy_delivery", "maopg.tasks.tool_delivery.task:ToolDelivery")
+    assert lazy.config == "maopg.tasks.tool_delivery.task:ToolDelivery.Config"
+    assert lazy.config_class() is ToolDelivery.Config and lazy.task_class() is ToolDelivery
+    with pytest.raises(ValueError, match="already registered"):
+        register_task("my_delivery", ToolDelivery)
+    assert (
+        register_task("my_delivery", ToolDelivery, threshold=1.0, overwrite=True).threshold == 1.0
+    )
+
+
+@pytest.mark.usefixtures("private_registry")
+def test_bad_registrations_fail_with_what_is_wrong() -> None:
+    class Bare:
+        """Has no ``Config`` to default to."""
+
+    with pytest.raises(ValueError, match="Bare has no Config attribute; pass config="):
+        register_task("bare", Bare)
+    broken = register_task("broken", "maopg.tasks.tool_delivery.task:NoSuchTask")
+    with pytest.raises(ValueError, match="has no attribute 'NoSuchTask'"):
+        broken.task_class()
+    wrong = register_task("wrong", "maopg.tasks.tool_delivery.config:Config", config="builtins:int")
+    with pytest.raises(TypeError, match="not a Task class"):
+        wrong.task_class()
+    with pytest.raises(TypeError, match="not a TaskConfig"):
+        wrong.config_class()

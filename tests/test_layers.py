@@ -1,0 +1,123 @@
+"""The package's dependency direction: sim → options → tasks → env → policy → learner →
+experiment, with no import cycles (docs/DESIGN.md, "Layers").
+
+Every import is counted — at module level, inside functions (lazy imports) and under
+``TYPE_CHECKING`` — because each is a dependency of the code, whether or not it runs at import
+time. The test parses the sources, so it needs no import to succeed.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import maopg
+
+PACKAGE = Path(maopg.__file__).resolve().parent
+LAYERS = ("sim", "options", "tasks", "env", "policy", "learner", "experiment")
+"""Subpackages from the bottom up; a module may import only its own layer and those below."""
+
+
+def _module_name(path: Path) -> str:
+    parts = path.relative_to(PACKAGE.parent).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+MODULES = {_module_name(p): p for p in sorted(PACKAGE.rglob("*.py"))}
+
+
+def _layer(module: str) -> int:
+    """0 for the package root's own modules (``maopg`` itself), else 1 + index."""
+    parts = module.split(".")
+    if len(parts) == 1 or parts[1] not in LAYERS:
+        return 0
+    return 1 + LAYERS.index(parts[1])
+
+
+def _imports(module: str) -> set[str]:
+    """The ``maopg`` modules that ``module`` imports (a name imported from a package resolves
+    to the submodule when one of that name exists)."""
+    path = MODULES[module]
+    package = module if path.name == "__init__.py" else module.rpartition(".")[0]
+    found: set[str] = set()
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.Import):
+            found.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                anchor = package.split(".")[: len(package.split(".")) - node.level + 1]
+                base = ".".join([*anchor, *([base] if base else [])])
+            for alias in node.names:
+                sub = f"{base}.{alias.name}"
+                found.add(sub if sub in MODULES else base)
+    return {m for m in found if m in MODULES and m != module}
+
+
+GRAPH = {module: _imports(module) for module in MODULES}
+
+
+def test_the_layers_are_the_packages_subpackages():
+    subpackages = {p.name for p in PACKAGE.iterdir() if (p / "__init__.py").exists()}
+    assert subpackages == set(LAYERS)
+
+
+def test_every_import_points_down_or_sideways():
+    upward = [
+        f"{module} ({LAYERS[_layer(module) - 1] if _layer(module) else 'root'}) imports "
+        f"{target} ({LAYERS[_layer(target) - 1]})"
+        for module, targets in GRAPH.items()
+        for target in sorted(targets)
+        if _layer(target) > _layer(module)
+    ]
+    assert not upward, "\n".join(upward)
+
+
+def test_there_is_no_import_cycle():
+    """Tarjan's strongly connected components: any component of two or more is a cycle."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    cycles: list[list[str]] = []
+
+    def visit(node: str) -> None:
+        index[node] = low[node] = len(index)
+        stack.append(node)
+        for target in GRAPH[node]:
+            if target not in index:
+                visit(target)
+                low[node] = min(low[node], low[target])
+            elif target in stack:
+                low[node] = min(low[node], index[target])
+        if low[node] == index[node]:
+            component = []
+            while True:
+                member = stack.pop()
+                component.append(member)
+                if member == node:
+                    break
+            if len(component) > 1:
+                cycles.append(sorted(component))
+
+    for module in GRAPH:
+        if module not in index:
+            visit(module)
+    assert not cycles, cycles
+
+
+def test_the_package_never_imports_the_command_line_folders():
+    """``train/`` and ``eval/`` are thin entry points of a clone, not installed packages."""
+    for module, path in MODULES.items():
+        for node in ast.walk(ast.parse(path.read_text())):
+            names = []
+            if isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom) and not node.level:
+                names = [node.module or ""]
+            assert not [n for n in names if n.split(".")[0] in ("train", "eval")], module
+
+
+def test_the_walk_sees_lazy_and_type_checking_imports():
+    """The test's own premise: a function-level import is an edge of the graph."""
+    assert "maopg.env" in GRAPH["maopg.env.vector"]
+    assert "maopg.experiment.trainer" in GRAPH["maopg.experiment.train_cli"]
