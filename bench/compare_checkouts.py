@@ -192,7 +192,10 @@ class Figure:
         old_m, new_m = statistics.median(old), statistics.median(new)
         # The change in time taken: for a rate, time goes as 1 / rate.
         slower = (old_m / new_m if self.column.higher_is_better else new_m / old_m) - 1
-        change = f"new {'slower' if slower > 0 else 'faster'} by {abs(slower):.1%}"
+        if round(slower, 3) == 0:
+            change = "same median"
+        else:
+            change = f"new {'slower' if slower > 0 else 'faster'} by {abs(slower):.1%}"
         if max(old) >= min(new) and max(new) >= min(old):
             return f"noise (ranges overlap; {change})"
         return f"**beyond noise: {change}**"
@@ -235,7 +238,7 @@ def make_new(into: Path) -> Checkout:
         "new",
         into,
         f"snapshot of the working tree ({copied} files): HEAD `{head}` + {changes} uncommitted "
-        "changes",
+        f"change{'s' if changes != 1 else ''}",
     )
 
 
@@ -335,8 +338,8 @@ def main() -> int:
     )
     print(
         f"- median (min–max) over the rounds; *noise* = the old and new ranges overlap (two "
-        f"equal distributions separate completely with probability {chance:.1%} per figure); "
-        f"slower/faster = change in time taken\n"
+        f"equal distributions separate completely by chance 1 time in {round(1 / chance):,} per "
+        "figure); slower/faster = change in time taken\n"
     )
     print("| section | row | figure | old | new | new/old | verdict |")
     print("|---|---|---|---|---|---|---|")

@@ -10,7 +10,7 @@ PY=.venv/bin/python
 ROOT=results/investigation/tool_delivery
 for method in sync-cut sync-wait async; do
   $PY -m train --task tool_delivery --method "$method" --seed 0 --resume progress=false \
-    video=false ent_coef=0.05 --run-dir "$ROOT/$method-ent0.05/seed0"
+    video=false ppo.ent_coef=0.05 --run-dir "$ROOT/$method-ent0.05/seed0"
   $PY -m train --task tool_delivery --method "$method" --seed 0 --resume progress=false \
     video=false env.mask_options=true --run-dir "$ROOT/$method-masked/seed0"
 done

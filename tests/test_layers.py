@@ -1,15 +1,23 @@
 """The package's dependency direction: sim → options → tasks → env → policy → learner →
 experiment, with no import cycles (docs/DESIGN.md, "Layers").
 
-Every import is counted — at module level, inside functions (lazy imports) and under
-``TYPE_CHECKING`` — because each is a dependency of the code, whether or not it runs at import
-time. The test parses the sources, so it needs no import to succeed.
+Every import is counted — at module level, inside functions (lazy imports), under
+``TYPE_CHECKING``, and the lazy ``"maopg.module:Attr"`` references of the registries — because
+each is a dependency of the code, whether or not it runs at import time. Parsing the sources
+needs no import to succeed; a second test imports each layer in a fresh interpreter and checks
+that nothing above it was loaded (what an import really pulls in, packages' ``__init__``
+included).
 """
 
 from __future__ import annotations
 
 import ast
+import re
+import subprocess
+import sys
 from pathlib import Path
+
+import pytest
 
 import maopg
 
@@ -34,6 +42,23 @@ def _layer(module: str) -> int:
     return 1 + LAYERS.index(parts[1])
 
 
+LAZY_REFERENCE = re.compile(r"^(maopg(?:\.\w+)+):\w")
+"""A registry's lazily imported ``"package.module:Attr"``."""
+
+
+def _text(node: ast.Constant | ast.JoinedStr, module: str) -> str:
+    """A string constant, or an f-string with ``{__name__}`` filled in (other fields empty)."""
+    if isinstance(node, ast.Constant):
+        return node.value if isinstance(node.value, str) else ""
+    parts = []
+    for value in node.values:
+        if isinstance(value, ast.Constant):
+            parts.append(str(value.value))
+        elif isinstance(value.value, ast.Name) and value.value.id == "__name__":
+            parts.append(module)
+    return "".join(parts)
+
+
 def _imports(module: str) -> set[str]:
     """The ``maopg`` modules that ``module`` imports (a name imported from a package resolves
     to the submodule when one of that name exists)."""
@@ -51,6 +76,10 @@ def _imports(module: str) -> set[str]:
             for alias in node.names:
                 sub = f"{base}.{alias.name}"
                 found.add(sub if sub in MODULES else base)
+        elif isinstance(node, ast.Constant | ast.JoinedStr):
+            reference = LAZY_REFERENCE.match(_text(node, module))
+            if reference:
+                found.add(reference.group(1))
     return {m for m in found if m in MODULES and m != module}
 
 
@@ -117,7 +146,21 @@ def test_the_package_never_imports_the_command_line_folders():
             assert not [n for n in names if n.split(".")[0] in ("train", "eval")], module
 
 
-def test_the_walk_sees_lazy_and_type_checking_imports():
-    """The test's own premise: a function-level import is an edge of the graph."""
+def test_the_walk_sees_lazy_and_registry_imports():
+    """The test's own premise: a function-level import and a registry string are edges."""
     assert "maopg.env" in GRAPH["maopg.env.vector"]
     assert "maopg.experiment.trainer" in GRAPH["maopg.experiment.train_cli"]
+    assert "maopg.tasks.tool_delivery.task" in GRAPH["maopg.tasks.tool_delivery"]
+
+
+@pytest.mark.parametrize("layer", LAYERS)
+def test_importing_a_layer_loads_nothing_above_it(layer):
+    names = sorted(m for m in MODULES if _layer(m) == 1 + LAYERS.index(layer))
+    above = [f"maopg.{name}" for name in LAYERS[LAYERS.index(layer) + 1 :]]
+    code = (
+        "import importlib, sys\n"
+        f"for name in {names!r}: importlib.import_module(name)\n"
+        f"print(sorted(m for m in sys.modules if m.startswith(tuple({above!r}))))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]", out.stdout

@@ -3,8 +3,8 @@
 A :class:`VectorEnv` backend only builds and steps environments; the backends differ in where
 the environments live (:class:`LocalVectorEnv`: this process; :class:`ProcessVectorEnv`:
 ``spawn`` worker processes), chosen by name through :data:`BACKENDS`, so a distributed backend is
-one more implementation. Everything that decides *what* is simulated stays in the main process,
-in :class:`SeededVectorEnv`, whatever the backend:
+one more implementation (:func:`register_backend`). Everything that decides *what* is simulated
+stays in the main process, in :class:`SeededVectorEnv`, whatever the backend:
 
 - environment ``e`` plays episode ``j`` from the seed :func:`episode_seed` ``(run seed, e, j)``;
 - results are gathered in environment order, whichever worker finishes first;
@@ -246,15 +246,25 @@ class ProcessVectorEnv:
             conn.close()
 
 
-BACKENDS: dict[str, Callable[..., VectorEnv]] = {
-    "local": lambda config, num_envs, run_seed, num_workers: LocalVectorEnv(
-        config, range(num_envs), run_seed
-    ),
-    "processes": lambda config, num_envs, run_seed, num_workers: ProcessVectorEnv(
-        config, num_envs, run_seed, num_workers=num_workers
-    ),
-}
-"""Backend name → ``factory(config, num_envs, run_seed, num_workers)``."""
+BackendFactory = Callable[[EnvConfig, int, int, int], VectorEnv]
+"""``factory(config, num_envs, run_seed, num_workers)`` → a :class:`VectorEnv`."""
+
+BACKENDS: dict[str, BackendFactory] = {}
+"""Backend name → factory: the values of the ``backend=`` config key."""
+
+
+def register_backend(name: str, factory: BackendFactory, *, overwrite: bool = False) -> None:
+    """Make ``backend=name`` build environments with ``factory`` (a distributed backend, say)."""
+    if name in BACKENDS and not overwrite:
+        raise ValueError(f"backend {name!r} is already registered (pass overwrite=True)")
+    BACKENDS[name] = factory
+
+
+register_backend("local", lambda config, n, seed, workers: LocalVectorEnv(config, range(n), seed))
+register_backend(
+    "processes",
+    lambda config, n, seed, workers: ProcessVectorEnv(config, n, seed, num_workers=workers),
+)
 
 
 def _digest(point: DecisionPoint) -> str:

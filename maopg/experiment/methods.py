@@ -36,7 +36,6 @@ class Method:
     strategy: Strategy | str
     learner: type[Learner]
     policy: PolicyBuilder
-    description: str = ""
 
     @property
     def section(self) -> str:
@@ -64,6 +63,12 @@ def register_method(method: Method, *, overwrite: bool = False) -> Method:
     if method.name in _METHODS and not overwrite:
         raise ValueError(f"method {method.name!r} is already registered (pass overwrite=True)")
     Strategy(method.strategy)
+    taken = section_classes().get(method.section)
+    if taken is not None and taken is not method.config_class:
+        raise ValueError(
+            f"config section {method.section!r} already belongs to {taken.__name__}; "
+            f"method {method.name!r} brings {method.config_class.__name__}"
+        )
     _METHODS[method.name] = method
     return method
 
@@ -86,9 +91,10 @@ def section_classes() -> dict[str, type]:
     return {m.section: m.config_class for m in _METHODS.values()}
 
 
-register_method(Method("async", "continue", MAPPOLearner, centralized_policy, "the paper's method"))
-register_method(Method("sync-cut", "any", MAPPOLearner, centralized_policy, "η_any baseline"))
-register_method(Method("sync-wait", "all", MAPPOLearner, centralized_policy, "η_all baseline"))
-register_method(Method("end2end", "primitive", MAPPOLearner, centralized_policy, "primitive MAPPO"))
-register_method(Method("mac-dqn", "continue", MacDQNLearner, joint_q_network, "Mac-Cen-Q"))
-register_method(Method("partial", "continue", MAPPOLearner, partial_policy, "paper §III-D"))
+# The paper's method and its baselines (docs/DESIGN.md §6), in the order of its tables.
+register_method(Method("async", "continue", MAPPOLearner, centralized_policy))
+register_method(Method("sync-cut", "any", MAPPOLearner, centralized_policy))
+register_method(Method("sync-wait", "all", MAPPOLearner, centralized_policy))
+register_method(Method("end2end", "primitive", MAPPOLearner, centralized_policy))
+register_method(Method("mac-dqn", "continue", MacDQNLearner, joint_q_network))
+register_method(Method("partial", "continue", MAPPOLearner, partial_policy))

@@ -51,6 +51,10 @@ def parse_args(argv: list[str] | None = None) -> tuple[TrainConfig, argparse.Nam
         "images": args.images,
     }
     named = {k: v for k, v in named.items() if v is not None}
+    for item in args.overrides:  # method=NAME works like --method: it picks the section
+        key, _, value = item.partition("=")
+        if key == "method" and "method" not in named:
+            named["method"] = value
     try:
         base = TrainConfig(method=named.get("method", TrainConfig.method)).to_dict()
         if args.resume:

@@ -40,6 +40,7 @@ from maopg.experiment.run_dir import (
     write_done,
 )
 from maopg.learner import (
+    CheckpointError,
     LearnerSetup,
     capture_global_rng,
     load_checkpoint,
@@ -99,6 +100,15 @@ def _prepare_run_dir(config: TrainConfig, resume: bool, overwrite: bool) -> Trai
     return config
 
 
+def _envs_state(state: dict, path: Path) -> dict:
+    """The environments' entry of a checkpoint (``sampler`` in checkpoints written before the
+    vector environments had their own module)."""
+    for key in ("envs", "sampler"):
+        if key in state:
+            return state[key]
+    raise CheckpointError(f"checkpoint {path} lacks the entries ['envs']")
+
+
 def train(config: TrainConfig, *, resume: bool = False, overwrite: bool = False) -> Path:
     """Train ``config`` (resolved here) and return the run directory."""
     config = _prepare_run_dir(config.resolved(), resume, overwrite)
@@ -143,12 +153,12 @@ def train(config: TrainConfig, *, resume: bool = False, overwrite: bool = False)
         learner = method.learner(policy, setup)
         iteration, samples, wall_time = 0, 0, 0.0
         if resume:
-            state = load_checkpoint(checkpoint_path, required=("iteration", "envs"))
+            state = load_checkpoint(checkpoint_path, required=("iteration",))
             learner.load_state_dict(state)
             sample_gen.set_state(state["sample_gen"])
             update_gen.set_state(state["update_gen"])
             restore_global_rng(state["global_rng"])
-            envs.load_state_dict(state["envs"])
+            envs.load_state_dict(_envs_state(state, checkpoint_path))
             iteration, samples, wall_time = state["iteration"], state["samples"], state["wall_time"]
         else:
             envs.reset()

@@ -237,3 +237,25 @@ def test_a_users_registered_task_gets_generic_defaults(tmp_path, monkeypatch):
     assert config.resolved().batch_ticks == 1000
     with pytest.raises(ValueError, match="unknown task 'nope'"):
         TrainConfig(task="nope").resolved()
+
+
+def test_method_as_a_key_value_picks_its_section():
+    config, _ = parse_args(["method=mac-dqn", "dqn.train_every=9"])
+    assert config.method == "mac-dqn" and config.learner == MacDQNConfig(train_every=9)
+
+
+def test_a_checkpoint_from_before_the_vector_env_module_resumes(tmp_path):
+    """Checkpoints written before ``maopg.env.vector`` named the environments' state
+    ``sampler``; an unfinished run of that time still resumes, bit for bit."""
+    from maopg.learner import save_checkpoint
+
+    whole, old = tmp_path / "whole", tmp_path / "old"
+    common = ["--seed", "4", *TINY]
+    main([*common, "--total-samples", "240", "--run-dir", str(whole)])
+    main([*common, "--total-samples", "120", "--run-dir", str(old)])
+    state = load_checkpoint(old / "checkpoint.pt")
+    state["sampler"] = state.pop("envs")
+    save_checkpoint(old / "checkpoint.pt", state)
+    (old / "done.json").unlink()
+    main(["--resume", "--run-dir", str(old), "--total-samples", "240", "progress=false"])
+    assert _deterministic(_rows(old)) == _deterministic(_rows(whole))

@@ -10,9 +10,9 @@ from __future__ import annotations
 
 from typing import Any, Protocol
 
-from maopg.options.base import Execution, MobileTask, Option
+from maopg.options.base import Execution, Option
 from maopg.options.moves import Move
-from maopg.sim.planning import Route
+from maopg.options.navigation import NavigateTo, RoutedTask
 from maopg.tasks.water_filling.config import Config
 from maopg.tasks.water_filling.constants import (
     FILL_NEAREST,
@@ -24,8 +24,8 @@ from maopg.tasks.water_filling.constants import (
 )
 
 
-class JarRules(MobileTask, Protocol):
-    """What Water Filling's own options ask of the task."""
+class JarRules(RoutedTask, Protocol):
+    """What Water Filling's own options ask of the task (routes go to a jar's viewing spot)."""
 
     def can_fill(self, jar: int) -> bool:
         """The vehicle is within fill reach of ``jar`` now."""
@@ -35,15 +35,6 @@ class JarRules(MobileTask, Protocol):
 
     def request_fill(self, jar: int) -> None:
         """Fill ``jar`` at the end of this tick if the vehicle is then within reach."""
-
-    def route_to(self, agent: int, jar: int) -> Route:
-        """A collision-free route of the agent's robot to its viewing spot of ``jar``."""
-
-    def nav_deadline(self, agent: int, route: Route) -> int:
-        """Ticks after which navigation along ``route`` gives up."""
-
-    def follow(self, agent: int, route: Route, jar: int) -> None:
-        """This tick's command along ``route``, turning to face ``jar`` at its end."""
 
     def facing(self, agent: int, jar: int) -> bool:
         """The robot's camera points at ``jar``."""
@@ -72,21 +63,20 @@ class Fill(Option[JarRules]):
         return True
 
 
-class NavTo(Option[JarRules]):
-    """Plan a path to jar ``jar`` and follow it; with ``fill``, then one Fill tick there.
+class NavTo(NavigateTo):
+    """Route navigation to jar ``jar`` (:class:`~maopg.options.navigation.NavigateTo`); with
+    ``fill``, then one Fill tick there.
 
     Ends once the robot is at the route's end facing the jar (so its level is observed on that
     tick), or at the route's deadline.
     """
 
     def __init__(self, jar: int, *, fill: bool = False) -> None:
+        super().__init__(nav_to_fill(jar) if fill else nav_to(jar), jar)
         self.jar, self.fill = jar, fill
-        self.name = nav_to_fill(jar) if fill else nav_to(jar)
 
     def start(self, task: JarRules, ex: Execution) -> None:
-        route = task.route_to(ex.agent, self.jar)
-        ex.memo["route"] = route
-        ex.memo["limit"] = task.nav_deadline(ex.agent, route)
+        super().start(task, ex)
         ex.memo["filling"] = False
 
     def step(self, task: JarRules, ex: Execution) -> None:
@@ -94,14 +84,12 @@ class NavTo(Option[JarRules]):
             task.hold(ex.agent)
             task.request_fill(self.jar)
         else:
-            task.follow(ex.agent, ex.memo["route"], self.jar)
+            super().step(task, ex)
 
     def done(self, task: JarRules, ex: Execution) -> bool:
         if ex.memo["filling"]:
             return True  # the fill tick has run
-        route = ex.memo["route"]
-        arrived = route.update(task.planar_position(ex.agent)) and task.facing(ex.agent, self.jar)
-        if not (arrived or ex.ticks >= ex.memo["limit"]):
+        if not super().done(task, ex):
             return False
         if self.fill and task.can_fill(self.jar):
             ex.memo["filling"] = True

@@ -253,6 +253,10 @@ class WaterFilling(SceneTask):
             tx, ty = x + FACE_CREEP * (jx - x) / d, y + FACE_CREEP * (jy - y) / d
         self._steer(agent, (tx, ty))
 
+    def at_goal(self, agent: int, route: Route, jar: int) -> bool:
+        """At the route's end, facing the jar (its camera sees the level)."""
+        return route.update(self.planar_position(agent)) and self.facing(agent, jar)
+
     def facing(self, agent: int, jar: int) -> bool:
         """The robot's heading points at the jar within ``face_tol`` (its camera sees it)."""
         x, y = self.planar_position(agent)
