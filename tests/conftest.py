@@ -1,3 +1,22 @@
 """Shared test setup: import maopg first so MUJOCO_GL=egl is set before any test imports mujoco."""
 
+import re
+from collections.abc import Callable, Sequence
+
+import pytest
+
 import maopg  # noqa: F401
+
+
+@pytest.fixture
+def user_error(capsys) -> Callable[[Callable[[Sequence[str]], int], Sequence[str], str], str]:
+    """``user_error(main, argv, pattern)``: the command line ends with exit status 2 and one
+    ``error:`` line matching ``pattern`` on stderr, no traceback; returns stderr."""
+
+    def check(main: Callable[[Sequence[str]], int], argv: Sequence[str], pattern: str) -> str:
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert re.search(pattern, err) and "Traceback" not in err, err
+        return err
+
+    return check

@@ -25,6 +25,16 @@ previous decision point, ``discounted_reward`` is ``sum_j gamma**j * r_j`` over 
 so a learner bootstraps with ``gamma**duration``. (The original code returned the last tick's
 reward only; that is a bug we do not reproduce.)
 
+Physics warnings
+----------------
+MuJoCo answers a numerical instability (too stiff gains for the timestep, say) by resetting the
+state and carrying on. A tick in which that happened (the scene raises
+:class:`maopg.sim.scene.PhysicsInstability`) ends the episode at once: the point is
+``truncated`` (its ``duration`` counts the lost tick, which earns no reward; ``ticks`` counts
+the ticks the task completed), every agent is marked choosing, ``info["physics_warning"]`` names
+the warning and the robot, and ``info["episode"]["solved"]`` is False, so a run of broken
+physics never reports a solved task. Learners treat it like any truncation.
+
 Joint options
 -------------
 ``OptionEnv.step(joint_option)`` takes one integer per agent. Entries of agents in ``U_t`` must be
@@ -138,7 +148,8 @@ class DecisionPoint:
     terminated: bool = False
     """The task reached a terminal state (bootstrap with 0)."""
     truncated: bool = False
-    """The episode hit the tick limit (bootstrap from the value of this point)."""
+    """The episode hit the tick limit, or its physics went unstable (``info["physics_warning"]``);
+    bootstrap from the value of this point."""
     ticks: int = 0
     """Ticks elapsed since reset (the episode's low-level time)."""
     info: dict[str, Any] = field(default_factory=dict)

@@ -7,6 +7,9 @@ scheduler sums the ticks' shared rewards, discounts them, and returns one
 chooses (its own option ended, or ``any``/``all`` made it choose): that is the paper's
 "observations refresh when the robot's own option ends", and it means cameras are rendered
 only for the agents that need a fresh image.
+
+A tick whose physics went unstable (:class:`~maopg.sim.scene.PhysicsInstability`) ends the
+episode at once, truncated and unsolved (see :mod:`maopg.env.contract`, "Physics warnings").
 """
 
 from __future__ import annotations
@@ -17,6 +20,7 @@ import numpy as np
 
 from maopg.env.contract import AgentSpec, DecisionPoint, EnvSpec, Strategy
 from maopg.options.base import Execution
+from maopg.sim.scene import PhysicsInstability
 from maopg.tasks.base import Task
 
 
@@ -67,6 +71,7 @@ class OptionEnv:
         self._vectors = [np.zeros(a.vector_size, dtype=np.float32) for a in self.spec.agents]
         self._images = np.zeros((n, size, size, 3), np.uint8) if task.config.images else None
         self._episode_return = 0.0
+        self._physics_warning: str | None = None
         self._needs_reset = True
         self._masks: tuple[np.ndarray, ...] = ()  # availability reported at the last point
         self._tick_listeners: list[Callable[[OptionEnv, float], None]] = []
@@ -88,6 +93,7 @@ class OptionEnv:
         self._running[:] = -1
         self._choosing[:] = True
         self._episode_return = 0.0
+        self._physics_warning = None
         self._needs_reset = False
         self._refresh(self._choosing)
         return self._point(0.0, 0.0, 0, False, False)
@@ -111,7 +117,14 @@ class OptionEnv:
                     task.hold(i)
                 else:
                     ex.option.step(task, ex)
-            reward = task.tick()
+            try:
+                reward = task.tick()
+            except PhysicsInstability as err:  # the tick is spent, its outcome is void
+                self._physics_warning = str(err)
+                self._choosing[:] = True  # every option is void: all observations refresh
+                k += 1
+                terminated, truncated = False, True
+                break
             for listener in self._tick_listeners:
                 listener(self, reward)
             total += reward
@@ -197,11 +210,13 @@ class OptionEnv:
     ) -> DecisionPoint:
         self._masks = self.action_masks()
         info: dict[str, object] = {"task": self.task.describe()}
+        if self._physics_warning is not None:
+            info["physics_warning"] = self._physics_warning
         if terminated or truncated:
             info["episode"] = {
                 "return": self._episode_return,
                 "ticks": self.task.ticks,
-                "solved": self.task.solved(),
+                "solved": self._physics_warning is None and self.task.solved(),
             }
         return DecisionPoint(
             vectors=tuple(self._vectors),

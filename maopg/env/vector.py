@@ -1,9 +1,10 @@
 """Vector environments: ``E`` option environments stepped in lockstep, behind one interface.
 
 A :class:`VectorEnv` backend only builds and steps environments; the backends differ in where
-the environments live (:class:`LocalVectorEnv`: this process; :class:`ProcessVectorEnv`:
-``spawn`` worker processes), chosen by name through :data:`BACKENDS`, so a distributed backend is
-one more implementation (:func:`register_backend`). Everything that decides *what* is simulated
+the environments live (:class:`LocalVectorEnv`: this process; :class:`ThreadVectorEnv`: this
+process, on threads; :class:`ProcessVectorEnv`: ``spawn`` worker processes), chosen by name
+through :data:`BACKENDS`, so a distributed backend is one more implementation
+(:func:`register_backend`). Everything that decides *what* is simulated
 stays in the main process, in :class:`SeededVectorEnv`, whatever the backend:
 
 - environment ``e`` plays episode ``j`` from the seed :func:`episode_seed` ``(run seed, e, j)``;
@@ -25,10 +26,13 @@ from __future__ import annotations
 
 import contextlib
 import copy
+import dataclasses
 import hashlib
 import multiprocessing as mp
 import traceback
+from abc import ABC, abstractmethod
 from collections.abc import Callable, Mapping, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from multiprocessing.connection import Connection
 from typing import Any, Protocol
@@ -38,6 +42,9 @@ import torch
 
 from maopg.env.contract import DecisionPoint, EnvSpec
 from maopg.env.option_env import OptionEnv
+from maopg.plugins import load_plugins
+from maopg.sim.robots import RobotSpec, get_robot, register_robot, robot_names
+from maopg.tasks.registry import register_task, task_entry, task_names
 
 
 def episode_seed(run_seed: int, env_index: int, episode: int) -> int:
@@ -149,16 +156,116 @@ class LocalVectorEnv:
             env.close()
 
 
+class _SplitVectorEnv(ABC):
+    """A backend that serves every call by giving each of its groups of environments its slice
+    of the per-environment arguments (:meth:`_split`) and concatenating the answers."""
+
+    @abstractmethod
+    def _split(self, call: str, *per_env_args: Sequence[Any]) -> list[Any]:
+        """``LocalVectorEnv.<call>`` on every group with its slices, answers in env order."""
+
+    def reset(self, seeds: Sequence[int]) -> list[DecisionPoint]:
+        return self._split("reset", seeds)
+
+    def step(self, joints: np.ndarray, next_seeds: Sequence[int]) -> list[StepResult]:
+        return self._split("step", joints, next_seeds)
+
+    def replay(
+        self, seeds: Sequence[int], actions: Sequence[Sequence[np.ndarray]]
+    ) -> list[DecisionPoint]:
+        return self._split("replay", seeds, actions)
+
+
+class ThreadVectorEnv(_SplitVectorEnv):
+    """Environments in this process, stepped in parallel on ``num_threads`` threads.
+
+    ``mj_step`` releases the GIL, so physics of different environments overlaps while Python
+    option logic interleaves. Environment ``e`` always runs on thread ``e % num_threads``: a
+    camera's GL context may be current on one thread only, so each environment keeps the
+    thread it rendered on first. Every environment is stepped exactly as in
+    :class:`LocalVectorEnv` and results are gathered in environment order, so the rollouts are
+    bit-identical to the ``local`` backend's.
+    """
+
+    def __init__(
+        self, config: EnvConfig, num_envs: int, run_seed: int, *, num_threads: int = 2
+    ) -> None:
+        if num_threads < 1:
+            raise ValueError(f"num_workers (threads) must be >= 1, got {num_threads}")
+        self.num_envs = num_envs
+        self.groups = [
+            [int(e) for e in g]
+            for g in np.array_split(np.arange(num_envs), min(num_threads, num_envs))
+        ]
+        self.pools = [
+            ThreadPoolExecutor(1, thread_name_prefix=f"maopg-env{k}")
+            for k in range(len(self.groups))
+        ]
+        self.envs = self._each(lambda group: LocalVectorEnv(config, group, run_seed), self.groups)
+
+    def _each(self, call: Callable[..., Any], *per_group: Sequence[Any]) -> list[Any]:
+        """``call(*args of group k)`` on group ``k``'s thread, for every group, in order."""
+        futures = [
+            pool.submit(call, *args) for pool, *args in zip(self.pools, *per_group, strict=True)
+        ]
+        return [f.result() for f in futures]
+
+    def _split(self, call: str, *per_env_args: Sequence[Any]) -> list[Any]:
+        sliced = [[[arg[e] for e in group] for arg in per_env_args] for group in self.groups]
+        results = self._each(lambda envs, args: getattr(envs, call)(*args), self.envs, sliced)
+        return [item for group in results for item in group]
+
+    def spec(self) -> EnvSpec:
+        return self.envs[0].spec()
+
+    def close(self) -> None:
+        self._each(lambda envs: envs.close(), self.envs)
+        for pool in self.pools:
+            pool.shutdown()
+
+
 _CALLS = ("spec", "reset", "step", "replay")
 """The :class:`LocalVectorEnv` methods a worker serves."""
 
 
-def _worker(conn: Connection, config: EnvConfig, env_indices: list[int], run_seed: int) -> None:
+Registrations = tuple[dict[str, Any], list[RobotSpec]]
+"""The task's registry entry (as ``register_task`` arguments) and every robot's spec."""
+
+
+def _registrations(task: str) -> Registrations:
+    """What a worker needs of the parent's registries (picklable: classes travel by module and
+    name; mappings as plain dicts)."""
+    entry = task_entry(task)
+    fields = {f.name: getattr(entry, f.name) for f in dataclasses.fields(entry)}
+    fields = {k: dict(v) if isinstance(v, Mapping) else v for k, v in fields.items()}
+    return fields, [get_robot(name) for name in robot_names()]
+
+
+def _adopt(task: dict[str, Any], robots: list[RobotSpec]) -> None:
+    """Register in this (spawned) process what the parent registered and this one lacks."""
+    known = set(robot_names())
+    for spec in robots:
+        if spec.name not in known:
+            register_robot(spec.name, spec.mjcf, spec.adapter, spec.constants)
+    if task["name"] not in task_names():
+        register_task(**task)
+
+
+def _worker(
+    conn: Connection,
+    config: EnvConfig,
+    env_indices: list[int],
+    run_seed: int,
+    registrations: Registrations,
+) -> None:
     """Worker process loop: build the environments, then serve ``(call, args)`` requests."""
     import maopg  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
 
     envs = None
     try:
+        # The parent's plugins (inherited MAOPG_PLUGINS), then whatever else it registered.
+        load_plugins()
+        _adopt(*registrations)
         envs = LocalVectorEnv(config, env_indices, run_seed)
         conn.send(("ok", None))
         while True:
@@ -178,7 +285,7 @@ def _worker(conn: Connection, config: EnvConfig, env_indices: list[int], run_see
         conn.close()
 
 
-class ProcessVectorEnv:
+class ProcessVectorEnv(_SplitVectorEnv):
     """Environments split over ``num_workers`` ``spawn``ed processes (at most one per env)."""
 
     def __init__(
@@ -190,11 +297,13 @@ class ProcessVectorEnv:
         self.num_envs = num_envs
         groups = np.array_split(np.arange(num_envs), min(num_workers, num_envs))
         self.groups = [[int(e) for e in g] for g in groups]
+        registrations = _registrations(config.task)
         self.conns: list[Connection] = []
         self.procs = []
         for group in self.groups:
             parent, child = ctx.Pipe()
-            proc = ctx.Process(target=_worker, args=(child, config, group, run_seed), daemon=True)
+            args = (child, config, group, run_seed, registrations)
+            proc = ctx.Process(target=_worker, args=args, daemon=True)
             proc.start()
             child.close()
             self.conns.append(parent)
@@ -225,17 +334,6 @@ class ProcessVectorEnv:
         self.conns[0].send(("spec", ()))
         return self._receive(self.conns[0])
 
-    def reset(self, seeds: Sequence[int]) -> list[DecisionPoint]:
-        return self._split("reset", seeds)
-
-    def step(self, joints: np.ndarray, next_seeds: Sequence[int]) -> list[StepResult]:
-        return self._split("step", joints, next_seeds)
-
-    def replay(
-        self, seeds: Sequence[int], actions: Sequence[Sequence[np.ndarray]]
-    ) -> list[DecisionPoint]:
-        return self._split("replay", seeds, actions)
-
     def close(self) -> None:
         for conn, proc in zip(self.conns, self.procs, strict=True):
             with contextlib.suppress(BrokenPipeError, OSError):
@@ -261,6 +359,10 @@ def register_backend(name: str, factory: BackendFactory, *, overwrite: bool = Fa
 
 
 register_backend("local", lambda config, n, seed, workers: LocalVectorEnv(config, range(n), seed))
+register_backend(
+    "threads",
+    lambda config, n, seed, workers: ThreadVectorEnv(config, n, seed, num_threads=max(workers, 2)),
+)
 register_backend(
     "processes",
     lambda config, n, seed, workers: ProcessVectorEnv(config, n, seed, num_workers=workers),

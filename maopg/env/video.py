@@ -12,6 +12,10 @@ One frame per **tick** (low-level step), composed as::
     | camera (upscaled observation)  ...           |
     +----------------------------------------------+
 
+A task without a scene films what its :meth:`~maopg.tasks.base.Task.video_frame` draws in the
+overview's place (nothing, when it draws nothing) and has a caption row without camera tiles:
+every task gets a video.
+
 The robots' tiles show each camera at the observation resolution (``task.config.image_size``)
 upscaled with nearest-neighbour, i.e. exactly the pixels an image-based policy sees; a caption
 turns yellow on the tick an agent starts a new option. The panel's task state comes from the
@@ -38,7 +42,7 @@ import maopg  # noqa: F401  (sets MUJOCO_GL=egl before mujoco is imported)
 from maopg.env import DecisionPoint, OptionEnv
 from maopg.env.rollout import ReferencePolicy
 from maopg.sim.render import CameraRenderer, VideoRenderer
-from maopg.tasks import ObsLayout, SceneTask, task_entry, task_names
+from maopg.tasks import ObsLayout, SceneTask, Task, task_entry, task_names
 from maopg.tasks.text import generic_state_lines
 
 OVERVIEW_SIZE = (480, 640)
@@ -119,11 +123,11 @@ class Overlay:
 
 
 class FrameComposer:
-    """Renders and composes one video frame of a scene task (see the module docstring)."""
+    """Renders and composes one video frame of a task (see the module docstring)."""
 
     def __init__(
         self,
-        task: SceneTask,
+        task: Task,
         agent_names: Sequence[str],
         *,
         layouts: Sequence[ObsLayout | None] | None = None,
@@ -136,15 +140,19 @@ class FrameComposer:
         self.layouts = tuple(layouts) if layouts is not None else (None,) * len(self.agent_names)
         self.title = title
         self.max_ticks = max_ticks
+        self.scene = isinstance(task, SceneTask)
         n = len(self.agent_names)
         oh, ow = OVERVIEW_SIZE
+        tile = TILE if self.scene else 0
         self.width = _round_up(max(ow + PANEL_WIDTH, n * TILE + (n - 1) * GAP), BLOCK)
-        self.height = _round_up(oh + GAP + CAPTION + TILE, BLOCK)
-        px = camera_px or task.config.image_size
-        self._overview = VideoRenderer(task.scene.model, oh, ow, camera="overview")
-        self._cameras = CameraRenderer(task.scene.model, px, px)
-        self._camera_ids = [robot.camera_id for robot in task.agent_robots]
-        self._camera_buf = np.empty((n, px, px, 3), np.uint8)
+        self.height = _round_up(oh + GAP + CAPTION + tile, BLOCK)
+        if isinstance(task, SceneTask):
+            px = camera_px or task.config.image_size
+            self._overview = VideoRenderer(task.scene.model, oh, ow, camera="overview")
+            self._cameras = CameraRenderer(task.scene.model, px, px)
+            self._camera_ids = [robot.camera_id for robot in task.agent_robots]
+            self._camera_buf = np.empty((n, px, px, 3), np.uint8)
+            self._data = task.scene.data
         self._font = ImageFont.load_default(size=18)
         self._small = ImageFont.load_default(size=15)
 
@@ -152,14 +160,28 @@ class FrameComposer:
     def shape(self) -> tuple[int, int, int]:
         return (self.height, self.width, 3)
 
+    def _picture(self) -> Image.Image | None:
+        """The overview: the scene's camera, or what a scene-less task draws (fit to size)."""
+        if self.scene:
+            return Image.fromarray(self._overview.frame(self._data))
+        frame = self.task.video_frame()
+        if frame is None:
+            return None
+        picture = Image.fromarray(np.asarray(frame, dtype=np.uint8))
+        scale = min(OVERVIEW_SIZE[1] / picture.width, OVERVIEW_SIZE[0] / picture.height)
+        size = (max(1, int(picture.width * scale)), max(1, int(picture.height * scale)))
+        return picture.resize(size, Image.NEAREST)
+
     def compose(self, overlay: Overlay) -> np.ndarray:
-        """Render the current simulation state and draw ``overlay``: uint8 ``[H, W, 3]``."""
-        data = self.task.scene.data
+        """Render the current state and draw ``overlay``: uint8 ``[H, W, 3]``."""
         canvas = Image.new("RGB", (self.width, self.height), BACKGROUND)
-        canvas.paste(Image.fromarray(self._overview.frame(data)), (0, 0))
-        self._cameras.render(data, self._camera_ids, out=self._camera_buf)
+        picture = self._picture()
+        if picture is not None:
+            canvas.paste(picture, (0, 0))
         draw = ImageDraw.Draw(canvas)
         self._draw_panel(draw, overlay)
+        if self.scene:
+            self._cameras.render(self._data, self._camera_ids, out=self._camera_buf)
 
         n = len(self.agent_names)
         row_width = n * TILE + (n - 1) * GAP
@@ -170,8 +192,9 @@ class FrameComposer:
             colour = HIGHLIGHT if overlay.started[i] else TEXT
             caption = f"{name}: {overlay.options[i]}"
             draw.text((x + 2, y_caption + 4), caption, fill=colour, font=self._small)
-            tile = Image.fromarray(self._camera_buf[i]).resize((TILE, TILE), Image.NEAREST)
-            canvas.paste(tile, (x, y_caption + CAPTION))
+            if self.scene:
+                tile = Image.fromarray(self._camera_buf[i]).resize((TILE, TILE), Image.NEAREST)
+                canvas.paste(tile, (x, y_caption + CAPTION))
         return np.asarray(canvas)
 
     def _draw_panel(self, draw: ImageDraw.ImageDraw, overlay: Overlay) -> None:
@@ -203,8 +226,9 @@ class FrameComposer:
                 y += 21
 
     def close(self) -> None:
-        self._overview.close()
-        self._cameras.close()
+        if self.scene:
+            self._overview.close()
+            self._cameras.close()
 
 
 def _round_up(value: int, block: int) -> int:
@@ -237,13 +261,12 @@ def record_episode(
 
     One frame at reset and one after every tick, so ``frames == ticks + 1``. ``policy`` maps a
     :class:`DecisionPoint` to a joint option (a reference policy or :class:`eval` 's adapter
-    of a trained network). The task must be a :class:`SceneTask` with an ``overview`` camera.
+    of a trained network). A scene task is filmed by its ``overview`` camera; any other task
+    by its ``video_frame`` hook, or as its state panel alone.
     """
     import imageio.v2 as imageio
 
     task = env.task
-    if not isinstance(task, SceneTask):
-        raise ValueError(f"task {task.name!r} has no scene to render (not a SceneTask)")
     names = env.spec.agent_names
     n = len(names)
     composer = FrameComposer(

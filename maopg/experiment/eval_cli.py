@@ -7,6 +7,7 @@ python -m eval evaluate --reference scripted --task tool_delivery --set turtlebo
 python -m eval video --checkpoint runs/tool_delivery/async/seed0 --out out/td_async.mp4
 python -m eval plot runs/ --out out/plots
 python -m eval table runs/ --threshold tool_delivery=200
+python -m eval check-robot --robot drone --role drone
 python -m eval reproduce              # the committed grid: results/runs → results/
 """
 
@@ -14,10 +15,15 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 
 import maopg  # noqa: F401  (sets MUJOCO_GL=egl before anything imports mujoco)
 from maopg.env.rollout import REFERENCE_POLICIES
+from maopg.experiment.command_line import add_common_options, run_command
+from maopg.sim.checks import add_check_robot_arguments, cmd_check_robot
+
+PROG = "python -m eval"
 
 
 def _policy_args(parser: argparse.ArgumentParser) -> None:
@@ -189,7 +195,8 @@ def build_parser() -> argparse.ArgumentParser:
     from maopg.experiment.methods import method_names
     from maopg.tasks import task_entry, task_names
 
-    parser = argparse.ArgumentParser(prog="python -m eval", description=__doc__.split("\n")[0])
+    parser = argparse.ArgumentParser(prog=PROG, description=__doc__.split("\n")[0])
+    add_common_options(parser)
     sub = parser.add_subparsers(dest="command", required=True)
 
     p = sub.add_parser("evaluate", help="mean ± std return etc. over N seeded episodes")
@@ -224,6 +231,12 @@ def build_parser() -> argparse.ArgumentParser:
         else:
             p.add_argument("--threshold", nargs="*", default=[], metavar="TASK=VALUE")
             p.add_argument("--out", type=Path, help="also write the Markdown here")
+
+    p = sub.add_parser(
+        "check-robot", help="a robot's controller checks in a test scene, with the figures"
+    )
+    add_check_robot_arguments(p)  # --robot NAME, --role ground|drone|arm, --timestep
+    p.set_defaults(func=cmd_check_robot)  # exit status 0 if every check passes, else 1
 
     p = sub.add_parser("reproduce", help="resumable methods × tasks × seeds grid, then results")
     p.add_argument("--runs", type=Path, default=Path("results/runs"))
@@ -266,9 +279,14 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def main(argv: list[str] | None = None) -> int:
+def _run(argv: list[str], plugins: list[str]) -> int:
     args = build_parser().parse_args(argv)
     return args.func(args)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run a subcommand; ``--import MODULE`` (anywhere, repeatable) loads plugins first."""
+    return run_command(PROG, argv, _run)
 
 
 if __name__ == "__main__":

@@ -18,6 +18,7 @@ from maopg.experiment.config import TrainConfig
 from maopg.experiment.methods import Method, get_method
 from maopg.experiment.run_dir import CHECKPOINT, FINAL
 from maopg.learner import Actor, CheckpointError, load_checkpoint
+from maopg.plugins import load_plugins
 
 CHECKPOINT_NAMES = (FINAL, CHECKPOINT)
 """Looked for, in this order, when a run directory is given instead of a file."""
@@ -58,6 +59,7 @@ def load_trained(path: str | Path) -> Trained:
     """Rebuild the policy of a checkpoint (file or run directory) with its weights."""
     file = resolve_checkpoint(path)
     state = load_checkpoint(file, required=("config",))
+    load_plugins(state["config"].get("plugins", []))  # the run's task or method may be theirs
     config = TrainConfig.from_dict(state["config"]).resolved()
     method = get_method(config.method)
     env = config.env().make(0)

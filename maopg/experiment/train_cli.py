@@ -5,25 +5,33 @@ Named flags cover what one changes per run; any :class:`~maopg.experiment.config
 field can be overridden as ``key=value`` (``num_envs=8``), the method's hyper-parameters as
 ``SECTION.key=value`` (``ppo.epochs=5``, ``dqn.lr=1e-3``) and task settings as
 ``env.key=value``. Tasks and methods are the registries' (``maopg.tasks``,
-``maopg.experiment.methods``).
+``maopg.experiment.methods``), extended by plugins (``--import MODULE``), which the run records
+so that ``--resume`` and evaluation import them again.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 
 import maopg  # noqa: F401  (sets MUJOCO_GL before anything imports mujoco)
+from maopg.experiment.command_line import add_common_options, run_command
 from maopg.experiment.config import TrainConfig, merge, parse_overrides
 from maopg.experiment.methods import method_names
 from maopg.experiment.run_dir import CONFIG
+from maopg.plugins import load_plugins
 from maopg.tasks import task_names
 
+PROG = "python -m train"
 
-def parse_args(argv: list[str] | None = None) -> tuple[TrainConfig, argparse.Namespace]:
+
+def build_parser() -> argparse.ArgumentParser:
+    """The parser, its choices from the registries as they are now (plugins loaded)."""
     parser = argparse.ArgumentParser(
-        prog="python -m train",
+        prog=PROG,
         description="Train an option-based multi-agent policy (MAPPO, or the Mac-DQN baseline).",
         epilog="Extra arguments key=value override any config field (e.g. num_envs=8, "
         "num_workers=2, video=false), SECTION.key=value a hyper-parameter of the method's "
@@ -39,9 +47,18 @@ def parse_args(argv: list[str] | None = None) -> tuple[TrainConfig, argparse.Nam
     parser.add_argument(
         "--images", action=argparse.BooleanOptionalAction, default=None, help="RGB observations"
     )
+    add_common_options(parser)
     parser.add_argument("overrides", nargs="*", metavar="key=value")
-    args = parser.parse_intermixed_args(argv)
+    return parser
 
+
+def parse_args(
+    argv: Sequence[str] | None = None, plugins: Sequence[str] = ()
+) -> tuple[TrainConfig, argparse.Namespace]:
+    """The run's config from ``argv`` (without ``--import``: ``plugins`` are the modules that
+    were imported for it)."""
+    parser = build_parser()
+    args = parser.parse_intermixed_args(argv)
     named = {
         "task": args.task,
         "method": args.method,
@@ -58,26 +75,41 @@ def parse_args(argv: list[str] | None = None) -> tuple[TrainConfig, argparse.Nam
     try:
         base = TrainConfig(method=named.get("method", TrainConfig.method)).to_dict()
         if args.resume:
-            # A resumed run starts from its saved config; flags given now must agree with it.
+            # A resumed run starts from its saved config (and its plugins, imported before the
+            # config is read: its task or method may be theirs); flags must agree with it.
             probe = TrainConfig.from_dict(merge(base, named)).resolved()
             saved = Path(probe.run_dir) / CONFIG  # type: ignore[arg-type]
             if saved.exists():
+                plugins = [*_saved_plugins(saved), *plugins]
+                load_plugins(plugins)
                 base = TrainConfig.load(saved).to_dict()
         values = parse_overrides(args.overrides, named.get("method", base["method"]))
         values.update(named)
+        values["plugins"] = list(dict.fromkeys([*base.get("plugins", []), *plugins]))
         config = TrainConfig.from_dict(merge(base, values))
     except ValueError as err:
         parser.error(str(err))
     return config, args
 
 
-def main(argv: list[str] | None = None) -> int:
-    config, args = parse_args(argv)
+def _saved_plugins(path: Path) -> list[str]:
+    try:
+        return list(json.loads(path.read_text()).get("plugins", []))
+    except json.JSONDecodeError as err:
+        raise ValueError(f"{path} is not valid JSON: {err}") from None
+
+
+def _train(argv: list[str], plugins: list[str]) -> int:
+    config, args = parse_args(argv, plugins)
     from maopg.experiment.trainer import train
 
     run_dir = train(config, resume=args.resume, overwrite=args.overwrite)
     print(f"run directory: {run_dir}")
     return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    return run_command(PROG, argv, _train)
 
 
 if __name__ == "__main__":

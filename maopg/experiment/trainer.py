@@ -56,6 +56,7 @@ RESUMABLE_KEYS = (
     "backend",
     "num_workers",
     "run_dir",
+    "plugins",
 )
 """Config fields a resumed run may change: none of them changes what is computed."""
 

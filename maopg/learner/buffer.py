@@ -67,10 +67,21 @@ class TrainBatch:
 
 @dataclass
 class Rollout:
-    """A ``[S, E]`` grid of option steps, filled row by row by the sampler."""
+    """A ``[S, E]`` grid of option steps, filled row by row by the collection loop.
+
+    Camera images are stored once each: an agent's observation refreshes exactly when it
+    chooses (the option contract, :mod:`maopg.env.contract`), so a row adds to the image bank
+    only the cameras of its choosing agents (every camera on the first row) and points the
+    others at the image they saw when they last chose. The training batch is banked
+    (:class:`~maopg.policy.ObsBatch`), and the encoders run the CNN once per image.
+    """
 
     num_envs: int
-    obs: list[ObsBatch] = field(default_factory=list)
+    vectors: list[Tensor] = field(default_factory=list)
+    bank: list[Tensor] = field(default_factory=list)
+    """Every distinct camera image of the rollout, ``uint8 [H, W, 3]`` each, in order seen."""
+    image_index: list[Tensor] = field(default_factory=list)
+    """Per row ``int64 [E, N]``: the bank entry each agent's camera showed."""
     choosing: list[Tensor] = field(default_factory=list)
     running: list[Tensor] = field(default_factory=list)
     available: list[Tensor] = field(default_factory=list)
@@ -105,8 +116,15 @@ class Rollout:
         truncated: np.ndarray,
         next_value: Tensor,
     ) -> None:
-        """Append one row (one option step of every environment)."""
-        self.obs.append(obs)
+        """Append one row (one option step of every environment); ``obs`` is dense (acting's)."""
+        self.vectors.append(obs.vectors)
+        if obs.images is not None:
+            fresh = choosing.bool() if self.image_index else torch.ones_like(choosing.bool())
+            index = self.image_index[-1].clone() if self.image_index else choosing.long()
+            for e, i in fresh.nonzero().tolist():
+                index[e, i] = len(self.bank)
+                self.bank.append(obs.images[e, i].clone())  # not a view: frees the row
+            self.image_index.append(index)
         self.choosing.append(choosing)
         self.running.append(running)
         self.available.append(available)
@@ -122,7 +140,7 @@ class Rollout:
 
     @property
     def num_steps(self) -> int:
-        return len(self.obs)
+        return len(self.vectors)
 
     @property
     def ticks(self) -> int:
@@ -166,8 +184,10 @@ class Rollout:
 
     def training_batch(self, advantages: np.ndarray, returns: np.ndarray) -> TrainBatch:
         """Flatten the grid row-major (index ``s * E + e``) into a :class:`TrainBatch`."""
+        images = torch.stack(self.bank) if self.bank else None
+        index = torch.cat(self.image_index) if self.image_index else None
         return TrainBatch(
-            obs=ObsBatch.cat(self.obs),
+            obs=ObsBatch(torch.cat(self.vectors), images, index),
             choosing=torch.cat(self.choosing),
             running=torch.cat(self.running),
             available=torch.cat(self.available),

@@ -26,12 +26,22 @@ from maopg.env.contract import DecisionPoint, EnvSpec
 
 @dataclass
 class ObsBatch:
-    """Joint observations of ``B`` decision points."""
+    """Joint observations of ``B`` decision points.
+
+    Images come in one of two forms. *Dense* (``image_index`` is ``None``): ``images`` is
+    ``uint8 [B, N, H, W, 3]``, every agent's camera at every point — what acting builds from
+    decision points. *Banked*: ``images`` is a bank ``uint8 [M, H, W, 3]`` of distinct images
+    and ``image_index`` ``int64 [B, N]`` says which one agent ``n`` saw at point ``b``; a
+    continuing agent's camera does not change between its decisions, so a rollout stores (and
+    an update encodes) each image once (:meth:`maopg.learner.buffer.Rollout.add`).
+    """
 
     vectors: Tensor
     """``float32 [B, ΣD_i]``: the agents' observation vectors concatenated in spec order."""
     images: Tensor | None = None
-    """``uint8 [B, N, H, W, 3]`` per-agent camera images, or ``None`` when images are off."""
+    """Dense ``uint8 [B, N, H, W, 3]``, or the bank ``[M, H, W, 3]``; ``None`` without images."""
+    image_index: Tensor | None = None
+    """``int64 [B, N]`` rows of the bank (banked form only)."""
 
     @staticmethod
     def from_decision_points(points: Sequence[DecisionPoint]) -> ObsBatch:
@@ -50,23 +60,32 @@ class ObsBatch:
         return self.vectors.shape[0]
 
     def __getitem__(self, index: Tensor | slice | int) -> ObsBatch:
-        """Rows ``index`` of the batch (minibatching); an ``int`` keeps a batch dimension of 1."""
+        """Rows ``index`` of the batch (minibatching); an ``int`` keeps a batch dimension of 1.
+        A banked batch keeps only the images its rows use."""
         if isinstance(index, int):
             index = slice(index, index + 1)
+        if self.image_index is not None:
+            bank, rows = compact_bank(self.images, self.image_index[index])  # type: ignore[arg-type]
+            return ObsBatch(self.vectors[index], bank, rows)
         images = None if self.images is None else self.images[index]
         return ObsBatch(self.vectors[index], images)
 
     def to(self, device: torch.device | str) -> ObsBatch:
         images = None if self.images is None else self.images.to(device)
-        return ObsBatch(self.vectors.to(device), images)
+        index = None if self.image_index is None else self.image_index.to(device)
+        return ObsBatch(self.vectors.to(device), images, index)
 
-    @staticmethod
-    def cat(batches: Sequence[ObsBatch]) -> ObsBatch:
-        """Concatenate batches along the batch dimension (e.g. rollouts of several workers)."""
-        images = None
-        if batches[0].images is not None:
-            images = torch.cat([b.images for b in batches])  # type: ignore[misc]
-        return ObsBatch(torch.cat([b.vectors for b in batches]), images)
+    def dense_images(self) -> Tensor | None:
+        """``uint8 [B, N, H, W, 3]`` whatever the form (a banked batch gathers its bank)."""
+        if self.images is None or self.image_index is None:
+            return self.images
+        return self.images[self.image_index]
+
+
+def compact_bank(bank: Tensor, index: Tensor) -> tuple[Tensor, Tensor]:
+    """The images of ``bank`` that ``index`` uses, once each, and ``index`` renumbered."""
+    used, renumbered = torch.unique(index, return_inverse=True)
+    return bank[used], renumbered.view(index.shape)
 
 
 def stack_conditions(points: Sequence[DecisionPoint]) -> tuple[Tensor, Tensor, Tensor]:

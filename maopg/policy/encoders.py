@@ -16,7 +16,7 @@ import torch
 from torch import Tensor, nn
 
 from maopg.env.contract import EnvSpec
-from maopg.policy.batch import ObsBatch, vector_slices
+from maopg.policy.batch import ObsBatch, compact_bank, vector_slices
 
 __all__ = ["JointEncoder", "LocalEncoder", "NatureCNN", "ObsBatch", "init_orthogonal"]
 
@@ -117,20 +117,28 @@ class _FusionEncoder(nn.Module):
         self.mlp = _mlp(in_dim, hidden, layers)
         self.out_dim = hidden
 
-    def image_features(self, images: Tensor) -> Tensor:
-        """``uint8 [B, N, H, W, 3]`` → ``[B, n_agents, cnn_features]`` for this encoder's agents."""
-        assert self.cnn is not None
-        selected = images.index_select(1, self.cameras)
-        batch, cams = selected.shape[:2]
-        features = self.cnn(selected.reshape(batch * cams, *selected.shape[2:]))
-        return features.view(batch, cams, -1)
+    def image_features(self, obs: ObsBatch) -> Tensor:
+        """``[B, n_agents, cnn_features]`` of this encoder's agents' cameras.
+
+        A banked batch runs the CNN once per distinct image these cameras saw and gathers the
+        features per point: the same numbers as encoding every point's images (each image goes
+        through the CNN on its own), at a fraction of the cost when agents continue.
+        """
+        assert self.cnn is not None and obs.images is not None
+        if obs.image_index is None:
+            selected = obs.images.index_select(1, self.cameras)
+            batch, cams = selected.shape[:2]
+            features = self.cnn(selected.reshape(batch * cams, *selected.shape[2:]))
+            return features.view(batch, cams, -1)
+        bank, index = compact_bank(obs.images, obs.image_index.index_select(1, self.cameras))
+        return self.cnn(bank)[index]
 
     def forward(self, obs: ObsBatch) -> Tensor:
         parts = [obs.vectors if self._all_columns else obs.vectors.index_select(1, self.columns)]
         if self.cnn is not None:
             if obs.images is None:
                 raise ValueError("this encoder reads images but the batch has none")
-            parts.append(self.image_features(obs.images).flatten(1))
+            parts.append(self.image_features(obs).flatten(1))
         return self.mlp(torch.cat(parts, dim=-1))
 
 

@@ -4,6 +4,17 @@ An arena MJCF holds the rooms, furniture and props (props may be pulled in with 
 ``<attach model=...>``). :class:`SceneBuilder` attaches each robot at a spawn frame with the
 name prefix ``"<prefix>/"`` and declares the weld equalities that let a free body (a tool) be
 held by the world, a gripper or a basket; :class:`Scene` steps the physics and owns those welds.
+
+The scene's global settings are the arena's and the task's: an attached file's ``<option>``,
+``<size>`` and ``<visual>`` are replaced by the scene's before attaching (MuJoCo would keep the
+scene's anyway, but print an "Attach conflict" warning and write ``MUJOCO_LOG.TXT`` for every
+robot of every build), its keyframes are dropped (their ``qpos`` would describe a model of its
+own), and a robot's lights are dropped, because they would light, and so change, every other
+robot's camera image.
+
+MuJoCo does not stop on a numerical instability: it resets the state and carries on, counting
+a warning. :meth:`Scene.advance` checks the counters and raises :class:`PhysicsInstability`, so
+a tick whose physics was reset is never taken for a real one.
 """
 
 from __future__ import annotations
@@ -23,6 +34,33 @@ WORLD = "world"
 
 class MJCFError(ValueError):
     """An MJCF file failed to load or compile; the message names the file(s)."""
+
+
+class PhysicsInstability(RuntimeError):
+    """MuJoCo raised a physics warning during :meth:`Scene.advance` (and, for a bad position,
+    velocity or acceleration, reset the state): the tick's physics is not to be trusted.
+
+    ``warning`` is the warning's name (``"mjWARN_BADQACC"``), ``robot`` the prefix of the robot
+    whose joint or actuator it names (None when it names none, e.g. a full contact buffer).
+    """
+
+    def __init__(self, message: str, warning: str, robot: str | None) -> None:
+        super().__init__(message)
+        self.warning = warning
+        self.robot = robot
+
+
+_WARNING_MEANING = {
+    mujoco.mjtWarning.mjWARN_CONTACTFULL: "the contact buffer is full",
+    mujoco.mjtWarning.mjWARN_CNSTRFULL: "the constraint buffer is full",
+    mujoco.mjtWarning.mjWARN_BADQPOS: "a bad (NaN/huge) position; MuJoCo reset the state",
+    mujoco.mjtWarning.mjWARN_BADQVEL: "a bad (NaN/huge) velocity; MuJoCo reset the state",
+    mujoco.mjtWarning.mjWARN_BADQACC: "a bad (NaN/huge) acceleration; MuJoCo reset the state",
+    mujoco.mjtWarning.mjWARN_BADCTRL: "a bad (NaN/huge) control; MuJoCo zeroed the controls",
+}
+"""The warnings a step can raise (``mjWARN_INERTIA`` is the compiler's), and what they mean."""
+_DOF_WARNINGS = (mujoco.mjtWarning.mjWARN_BADQVEL, mujoco.mjtWarning.mjWARN_BADQACC)
+"""Warnings whose ``lastinfo`` is a DOF index."""
 
 
 def load_spec(path: str | Path) -> mujoco.MjSpec:
@@ -46,6 +84,39 @@ def yaw_quat(yaw: float) -> list[float]:
     return [math.cos(yaw / 2.0), 0.0, 0.0, math.sin(yaw / 2.0)]
 
 
+_SIZE_SETTINGS = ("memory", "nconmax", "njmax", "nstack", "nuserdata", "nkey")
+"""``<size>`` settings of an MjSpec besides the ``nuser_*`` ones."""
+
+
+def _copy_settings(dst: Any, src: Any) -> None:
+    """Copy every setting of an MjSpec settings struct (``option``, ``visual``) onto another."""
+    for name in dir(src):
+        if name.startswith("_"):
+            continue
+        value = getattr(src, name)
+        if isinstance(value, bool | int | float | str | np.ndarray):
+            setattr(dst, name, value)
+        elif not callable(value):  # a nested struct (visual.headlight, ...)
+            _copy_settings(getattr(dst, name), value)
+
+
+def strip_for_attaching(child: mujoco.MjSpec, parent: mujoco.MjSpec, *, lights: bool) -> None:
+    """Make ``child`` attach to ``parent`` silently and without side effects on the scene.
+
+    Its global settings become the parent's (so nothing conflicts), its keyframes are deleted,
+    and with ``lights=False`` its lights too (see the module docstring).
+    """
+    _copy_settings(child.option, parent.option)
+    _copy_settings(child.visual, parent.visual)
+    for name in (*_SIZE_SETTINGS, *(n for n in dir(parent) if n.startswith("nuser_"))):
+        setattr(child, name, getattr(parent, name))
+    for key in list(child.keys):
+        child.delete(key)
+    if not lights:
+        for light in list(child.lights):
+            child.delete(light)
+
+
 class SceneBuilder:
     """Compose an arena, robots, props and attachable bodies into one compiled :class:`Scene`."""
 
@@ -67,10 +138,13 @@ class SceneBuilder:
         self._robots: list[tuple[str, RobotSpec]] = []
         self._welds: list[tuple[str, str | None, bool]] = []
 
-    def _attach(self, prefix: str, mjcf: str | Path, pos: Sequence[float], yaw: float) -> None:
+    def _attach(
+        self, prefix: str, mjcf: str | Path, pos: Sequence[float], yaw: float, *, lights: bool
+    ) -> None:
         if "/" in prefix or not prefix:
             raise ValueError(f"prefix must be a non-empty name without '/', got {prefix!r}")
         child = load_spec(mjcf)
+        strip_for_attaching(child, self.spec, lights=lights)
         frame = self.spec.worldbody.add_frame(pos=list(pos), quat=yaw_quat(yaw))
         self.spec.attach(child, prefix=f"{prefix}/", frame=frame)
         self._files.append(str(mjcf))
@@ -86,14 +160,15 @@ class SceneBuilder:
         spec = get_robot(robot) if isinstance(robot, str) else robot
         if any(p == prefix for p, _ in self._robots):
             raise ValueError(f"robot prefix '{prefix}' is already used")
-        self._attach(prefix, spec.mjcf, pos, yaw)
+        self._attach(prefix, spec.mjcf, pos, yaw, lights=False)
         self._robots.append((prefix, spec))
 
     def add_prop(
         self, prefix: str, mjcf: str | Path, pos: Sequence[float], yaw: float = 0.0
     ) -> None:
-        """Attach a prop file (desk, jar, tool, ...) at a pose; its names get ``prefix/``."""
-        self._attach(prefix, mjcf, pos, yaw)
+        """Attach a prop file (desk, jar, tool, ...) at a pose; its names get ``prefix/``. A
+        prop keeps its lights (a lamp may be the point of it)."""
+        self._attach(prefix, mjcf, pos, yaw, lights=True)
 
     def add_attachable(self, body: str, holders: Sequence[str | None]) -> None:
         """Declare welds between a free ``body`` and each holder body (None = the world).
@@ -186,7 +261,21 @@ class Scene:
         ``mj_step`` the position-derived fields (``xpos``, ``site_xpos``, ...) still describe the
         state one step earlier; the closing ``mj_forward`` makes everything a task observes or
         renders describe the current state (and keeps ``drive_to``'s arrival exact).
+
+        Raises :class:`PhysicsInstability` when MuJoCo counted a warning meanwhile.
         """
+        # Counted from zero in every advance: MuJoCo's reset on instability zeroes the counters
+        # before counting the warning, so a count kept across advances would miss a repeat.
+        warnings = self.data.warning
+        for warning in _WARNING_MEANING:
+            warnings[warning].number = 0
+        start = self.data.time  # a reset restarts the clock
+        self._step(seconds)
+        for warning, meaning in _WARNING_MEANING.items():
+            if warnings[warning].number:
+                raise self._instability(warning, meaning, start, seconds)
+
+    def _step(self, seconds: float) -> None:
         n, chunk = self._schedule(seconds)
         model, data = self.model, self.data
         if chunk == n:
@@ -211,6 +300,32 @@ class Scene:
                         robot.apply()
             mujoco.mj_step(model, data, nstep=chunk)
         mujoco.mj_forward(model, data)
+
+    def _instability(
+        self, warning: mujoco.mjtWarning, meaning: str, start: float, seconds: float
+    ) -> PhysicsInstability:
+        """The exception for ``warning``, naming the joint or actuator it reports (its
+        ``lastinfo``: a ``qpos`` or DOF index, or an actuator index) and so the robot."""
+        model, info = self.model, int(self.data.warning[warning].lastinfo)
+        kind, name = "", ""
+        if warning == mujoco.mjtWarning.mjWARN_BADCTRL and 0 <= info < model.nu:
+            kind, name = "actuator", model.actuator(info).name
+        elif warning == mujoco.mjtWarning.mjWARN_BADQPOS and 0 <= info < model.nq:
+            kind = "joint"
+            name = model.joint(int(np.searchsorted(model.jnt_qposadr, info, "right")) - 1).name
+        elif warning in _DOF_WARNINGS and 0 <= info < model.nv:
+            kind, name = "joint", model.joint(int(model.dof_jntid[info])).name
+        owner = name.partition("/")[0]
+        robot = owner if name and owner in self.robots else None
+        where = f" at {kind} '{name}'" if name else ""
+        where += f" of robot '{robot}'" if robot else ""
+        return PhysicsInstability(
+            f"physics unstable between t={start:.3f} s and {start + seconds:.3f} s: "
+            f"{warning.name}{where} ({meaning}); "
+            "lower the robot's gains, or the timestep",
+            warning.name,
+            robot,
+        )
 
     # --- welds ---------------------------------------------------------------------------------
     def attach(self, body: str, holder: str | None) -> None:

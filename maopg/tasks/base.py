@@ -112,6 +112,14 @@ class Task(ABC):
         """Task state for logs and video overlays (human stage, jar levels, ...)."""
         return {}
 
+    def video_frame(self) -> np.ndarray | None:
+        """A picture of the current state for rollout videos (uint8 ``[H, W, 3]``), or ``None``.
+
+        A task without a MuJoCo scene (a 2-D simulator of the user's, a PettingZoo game) may
+        draw itself here; without it its video shows the state panel alone. Scene tasks film
+        their overview camera instead."""
+        return None
+
     def close(self) -> None:  # noqa: B027 (optional hook)
         """Release renderers and other resources."""
 

@@ -160,5 +160,11 @@ def make_config(name: str, overrides: Mapping[str, Any] | None = None) -> TaskCo
 
 
 def load(name: str, overrides: Mapping[str, Any] | None = None) -> Task:
-    """Build task ``name`` with its default config updated by ``overrides``."""
-    return task_class(name)(make_config(name, overrides))
+    """Build task ``name`` with its default config updated by ``overrides``.
+
+    The task takes the name it was registered under (a class registered twice, or under
+    another name than its own, is still found by what the user asked for: the environment's
+    spec, rollouts and videos look its entry up by ``task.name``)."""
+    task = task_class(name)(make_config(name, overrides))
+    task.name = name
+    return task

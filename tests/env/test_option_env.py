@@ -9,6 +9,9 @@ from pettingzoo.test import parallel_api_test
 from maopg.env import DecisionPoint, OptionEnv, make_env
 from maopg.env.pettingzoo import OptionParallelEnv
 from maopg.env.rollout import RandomPolicy
+from maopg.sim import robots
+from maopg.sim.robots import ASSETS_DIR, register_robot
+from maopg.sim.robots.vehicle import VehicleAdapter, VehicleConstants
 from maopg.tasks.tool_delivery.constants import FETCH, TOOL_ROOM_WAIT, WORKSHOP
 
 GAMMA = 0.95
@@ -200,6 +203,41 @@ def test_bad_input_raises_value_errors_that_name_the_agent() -> None:
     with pytest.raises(ValueError, match="valid keys"):
         make_env("tool_delivery", overrides={"max_tick": 10})
     env.close()
+
+
+def test_an_episode_whose_physics_mujoco_reset_ends_truncated_and_unsolved(
+    tmp_path, monkeypatch
+) -> None:
+    """A 20-tick Water Filling episode is solved when no jar runs dry; with a vehicle whose
+    heading servo is far too stiff, MuJoCo resets the physics in the first tick, and that
+    episode used to be reported solved with its full return too."""
+    monkeypatch.setattr(robots, "_REGISTRY", dict(robots._REGISTRY))
+    monkeypatch.chdir(tmp_path)  # MuJoCo logs the instability to MUJOCO_LOG.TXT
+    clamped = 'forcerange="-80 80"/>\n  </actuator>'  # the yaw servo's force limit
+    text = (ASSETS_DIR / "robots" / "vehicle.xml").read_text()
+    assert clamped in text
+    (tmp_path / "vehicle.xml").write_text(text.replace(clamped, "/>\n  </actuator>"))
+    stiff = VehicleConstants(yaw_kp=1e6, yaw_kv=0.0)
+    register_robot("stiff_vehicle", tmp_path / "vehicle.xml", VehicleAdapter, stiff)
+
+    def last_point(**overrides) -> DecisionPoint:
+        env = make_env("water_filling", overrides={"max_ticks": 20, **overrides})
+        nav = [a.option_index("NavTo(1)") for a in env.spec.agents]
+        point = env.reset()
+        while not point.done:
+            point = env.step(np.where(point.choosing, nav, point.running))
+        env.close()
+        return point
+
+    healthy = last_point()
+    assert healthy.info["episode"]["solved"] and "physics_warning" not in healthy.info
+    point = last_point(vehicle_robot="stiff_vehicle")
+    assert point.truncated and not point.terminated and point.ticks < 20
+    assert "mjWARN_BADQACC" in point.info["physics_warning"]
+    assert "robot 'vehicle'" in point.info["physics_warning"]
+    assert not point.info["episode"]["solved"]
+    assert point.duration >= 1 and point.reward == 0.0, "the lost tick counts, unrewarded"
+    assert point.choosing.all()
 
 
 def test_pettingzoo_parallel_api() -> None:

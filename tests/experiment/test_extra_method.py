@@ -113,7 +113,7 @@ QUIET = ["progress=false", "video=false", "checkpoint_every=1", "reinforce.lr=3e
 
 
 def test_a_registered_method_trains_resumes_and_evaluates_through_the_cli(
-    reinforce, tmp_path, capsys
+    reinforce, tmp_path, capsys, user_error
 ):
     whole, split = tmp_path / "whole", tmp_path / "split"
     train_main([*ARGS, *QUIET, "--total-samples", "400", "--run-dir", str(whole)])
@@ -131,5 +131,5 @@ def test_a_registered_method_trains_resumes_and_evaluates_through_the_cli(
     assert eval_main(["evaluate", "--checkpoint", str(split), "--episodes", "2", "--sample"]) == 0
     assert "| reinforce seed1 @" in capsys.readouterr().out
 
-    with pytest.raises(ValueError, match=r"reinforce\.lr must be > 0"):  # checked like ppo.*
-        train_main([*ARGS, "reinforce.lr=-1", "--run-dir", str(tmp_path / "bad")])
+    bad = [*ARGS, "reinforce.lr=-1", "--run-dir", str(tmp_path / "bad")]
+    user_error(train_main, bad, r"reinforce\.lr must be > 0")  # checked like ppo.*

@@ -176,20 +176,20 @@ def test_kill_and_resume_reproduces_the_uninterrupted_run(tmp_path):
     assert json.loads((killed / "done.json").read_text())["samples"] >= 1200
 
 
-def test_worker_processes_give_the_same_curve_as_in_process(tmp_path):
-    common = ["--seed", "2", "--total-samples", "240", *TINY]
+@pytest.mark.parametrize("backend", ["threads", "processes"])
+def test_every_backend_gives_the_same_curve_as_in_process(tmp_path, backend):
+    common = ["--seed", "2", "--total-samples", "240", *TINY, "--images", "num_workers=2"]
     main([*common, "--run-dir", str(tmp_path / "serial"), "backend=local"])
-    main([*common, "--run-dir", str(tmp_path / "workers"), "backend=processes", "num_workers=2"])
+    main([*common, "--run-dir", str(tmp_path / backend), f"backend={backend}"])
     serial = _deterministic(_rows(tmp_path / "serial"))
-    assert serial == _deterministic(_rows(tmp_path / "workers"))
+    assert serial == _deterministic(_rows(tmp_path / backend))
 
 
-def test_existing_run_needs_resume_and_corrupt_checkpoint_is_named(tmp_path):
+def test_existing_run_needs_resume_and_corrupt_checkpoint_is_named(tmp_path, user_error):
     run_dir = tmp_path / "run"
     args = ["--total-samples", "60", "--run-dir", str(run_dir), *TINY]
     main(args)
-    with pytest.raises(FileExistsError, match="--resume"):
-        main(args)
+    user_error(main, args, "already holds a run; pass --resume")
     # a finished run resumes as a no-op, even where its checkpoint is gone (a fresh clone)
     checkpoint = run_dir / "checkpoint.pt"
     saved = checkpoint.read_bytes()
@@ -198,12 +198,13 @@ def test_existing_run_needs_resume_and_corrupt_checkpoint_is_named(tmp_path):
     main(["--resume", "--run-dir", str(run_dir), "progress=false"])
     assert (run_dir / "metrics.csv").read_text() == metrics and not checkpoint.exists()
     checkpoint.write_bytes(saved[:100])
-    with pytest.raises(CheckpointError, match=str(checkpoint)):
-        main(["--resume", "--run-dir", str(run_dir), "--total-samples", "200"])
+    resume = ["--resume", "--run-dir", str(run_dir), "--total-samples", "200"]
+    user_error(main, resume, f"checkpoint {checkpoint} is corrupt")
+    with pytest.raises(CheckpointError, match=str(checkpoint)):  # --debug: the traceback
+        main([*resume, "--debug"])
     # the failed extension left no final policy behind to be mistaken for its result
     assert not (run_dir / "final.pt").exists() and not (run_dir / "done.json").exists()
-    with pytest.raises(ValueError, match="seed"):
-        main(["--resume", "--run-dir", str(run_dir), "--seed", "9"])
+    user_error(main, ["--resume", "--run-dir", str(run_dir), "--seed", "9"], r"seed \(saved 0")
 
 
 @pytest.mark.parametrize("method", ["async", "mac-dqn"])

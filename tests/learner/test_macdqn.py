@@ -308,13 +308,12 @@ def test_killed_run_resumes_bit_for_bit(tmp_path, recurrent):
     assert all(torch.equal(a[k], b[k]) for k in a)
 
 
-def test_resume_rejects_a_changed_config(tmp_path):
+def test_resume_rejects_a_changed_config(tmp_path, user_error):
     run = ["--run-dir", str(tmp_path / "run")]
     train_main([*TINY, *run, "--total-samples", "200"])
-    with pytest.raises(ValueError, match=r"dqn\.lr \(saved 0\.0006, given 0\.001\)"):
-        train_main([*TINY, *run, "--resume", "dqn.lr=1e-3"])
-    with pytest.raises(FileExistsError):
-        train_main([*TINY, *run])
+    resume = [*TINY, *run, "--resume", "dqn.lr=1e-3"]
+    user_error(train_main, resume, r"dqn\.lr \(saved 0\.0006, given 0\.001\)")
+    user_error(train_main, [*TINY, *run], "already holds a run")
 
 
 @pytest.mark.slow

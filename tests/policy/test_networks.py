@@ -79,7 +79,7 @@ def decision_point(spec: EnvSpec, rng: np.random.Generator) -> DecisionPoint:
     )
 
 
-def test_batching_decision_points_copies_and_concatenates():
+def test_batching_decision_points_copies_and_banks_images():
     spec = make_spec(image_px=36)
     rng = np.random.default_rng(0)
     points = [decision_point(spec, rng) for _ in range(4)]
@@ -101,8 +101,11 @@ def test_batching_decision_points_copies_and_concatenates():
     assert torch.equal(obs.vectors, before[0]) and torch.equal(obs.images, before[1])
     sub = obs[torch.tensor([3, 1])]
     assert torch.equal(sub.vectors[0], obs.vectors[3]) and torch.equal(sub.images[1], obs.images[1])
-    both = ObsBatch.cat([obs, sub])
-    assert len(both) == 6 and torch.equal(both.images[4], obs.images[3])
+    # the banked form: a bank of distinct images and per-point indices into it
+    bank = ObsBatch(obs.vectors, obs.images.flatten(0, 1), torch.arange(12).view(4, 3))
+    assert torch.equal(bank.dense_images(), obs.images)
+    picked = bank[torch.tensor([3, 1])]
+    assert picked.images.shape[0] == 6 and torch.equal(picked.dense_images(), sub.images)
 
 
 @pytest.mark.parametrize(("px", "flat"), [(36, 64), (64, 1024), (84, 3136)])
@@ -140,7 +143,7 @@ def test_joint_encoder_shares_one_cnn_across_agents(px):
     assert encoder.mlp[0].in_features == 13 + 3 * 32
     obs.images[:, 2] = obs.images[:, 0]  # the Fetch sees what Turtlebot 0 sees
     with torch.no_grad():
-        features = encoder.image_features(obs.images)
+        features = encoder.image_features(obs)
     assert features.shape == (4, 3, 32)
     torch.testing.assert_close(features[:, 2], features[:, 0])
     assert not torch.allclose(features[:, 1], features[:, 0])

@@ -6,14 +6,18 @@ from __future__ import annotations
 import maopg  # noqa: F401  (sets MUJOCO_GL=egl before mujoco is imported)
 # isort: on
 
+import inspect
 import math
 
 import numpy as np
 import pytest
 
+from maopg.sim import robots
+from maopg.sim.checks import check_robot, format_report
 from maopg.sim.props import JarHandle
 from maopg.sim.render import CameraRenderer
-from maopg.sim.scene import Scene
+from maopg.sim.robots import ASSETS_DIR, DroneAdapter, get_robot, register_robot, robot_names
+from maopg.sim.scene import Scene, SceneBuilder
 from maopg.tasks.water_filling.config import Config
 from maopg.tasks.water_filling.scene import read_arena
 
@@ -100,6 +104,38 @@ def test_drone_turns_to_a_commanded_yaw_while_hovering(wf_scene) -> None:
     scene.advance(4.0)
     assert abs(drone.yaw - math.pi / 2) < 0.05
     assert drone.at((p[0], p[1], 1.2), 0.05)
+
+
+def test_drone_adapters_take_the_documented_fly_to_with_a_yaw() -> None:
+    """Water Filling turns the drone to face a jar through ``fly_to(..., yaw=...)``; the base
+    class documents that signature, so an adapter written to it works there."""
+    documented = inspect.signature(DroneAdapter.fly_to)
+    assert list(documented.parameters) == ["self", "xyz", "speed", "yaw"]
+    drones = [get_robot(n).adapter_class() for n in robot_names()]
+    drones = [cls for cls in drones if issubclass(cls, DroneAdapter)]
+    assert drones
+    for cls in drones:
+        assert inspect.signature(cls.fly_to) == documented, cls.__name__
+
+
+def test_drone_controller_scales_by_the_body_frame_inertia(tmp_path, monkeypatch) -> None:
+    """A full inertia has a rotated principal frame (``body_iquat``): the attitude loop must use
+    R diag(I) R^T, not the principal moments as if they were about the body axes."""
+    monkeypatch.setattr(robots, "_REGISTRY", dict(robots._REGISTRY))
+    diagonal = 'diaginertia="0.012 0.012 0.022"'
+    text = (ASSETS_DIR / "robots" / "drone.xml").read_text()
+    assert diagonal in text
+    path = tmp_path / "tilted_inertia_drone.xml"
+    path.write_text(text.replace(diagonal, 'fullinertia="0.011 0.016 0.022 0.003 0 0"'))
+    register_robot("tilted", path, "maopg.sim.robots.drone:DroneAdapter")
+    builder = SceneBuilder("arenas/water_filling.xml", timestep=0.005)
+    builder.add_robot("d", "tilted", (0.0, 0.0, 0.0))
+    scene = builder.build()
+    assert not np.allclose(scene.model.body_iquat[scene.robots["d"].root_body_id], (1, 0, 0, 0))
+    body_frame = [[0.011, 0.003, 0.0], [0.003, 0.016, 0.0], [0.0, 0.0, 0.022]]
+    np.testing.assert_allclose(scene.robots["d"].inertia, body_frame, atol=1e-12)
+    results = check_robot("tilted", "drone")
+    assert all(r.passed for r in results), format_report("tilted", "drone", results)
 
 
 def test_drone_tilts_to_move(wf_scene) -> None:

@@ -2,14 +2,20 @@
 
 from __future__ import annotations  # noqa: I001  (maopg must come before mujoco)
 
+import warnings
+
 import maopg  # noqa: F401  (sets MUJOCO_GL=egl before mujoco is imported)
+import mujoco
 import numpy as np
 import pytest
 
 from maopg.sim import robots
-from maopg.sim.robots import get_robot, register_robot, robot_names
+from maopg.sim.render import CameraRenderer
+from maopg.sim.robots import ASSETS_DIR, get_robot, register_robot, robot_names
 from maopg.sim.robots.turtlebot import TurtlebotAdapter, TurtlebotConstants
-from maopg.sim.scene import MJCFError, Scene, SceneBuilder
+from maopg.sim.scene import MJCFError, PhysicsInstability, Scene, SceneBuilder
+from maopg.tasks.tool_delivery.config import Config as TDConfig
+from maopg.tasks.tool_delivery.scene import build_scene as build_td_scene
 
 
 def test_composed_scene_has_prefixed_robots_props_and_cameras(td_scene) -> None:
@@ -176,3 +182,66 @@ def test_attach_to_an_undeclared_holder_is_refused(td_scene) -> None:
     scene = td_scene()
     with pytest.raises(KeyError, match="no weld declared"):
         scene.attach("tool0/tool", "fetch/base")
+
+
+def _standalone_turtlebot(path) -> None:
+    """The Turtlebot as a stand-alone file of a robot collection: its own ``<option>``,
+    ``<size>`` and ``<visual>``, a keyframe, and lights (one in the world, one on the robot)."""
+    text = (ASSETS_DIR / "robots" / "turtlebot.xml").read_text()
+    text = text.replace(
+        "<worldbody>",
+        '<option timestep="0.002" integrator="RK4" density="1.2"/>'
+        '<size njmax="500" nkey="1"/><visual><map znear="0.5"/></visual>'
+        '<worldbody><light name="lamp" pos="0 0 2" dir="0 0 -1" diffuse="1 0.2 0.2"/>',
+    )
+    text = text.replace('<body name="base">', '<body name="base"><light name="led" pos="0 0 0.5"/>')
+    text = text.replace(
+        "</actuator>", '</actuator><keyframe><key name="home" qpos="1 0 0"/></keyframe>'
+    )
+    path.write_text(text)
+
+
+def test_a_robot_files_settings_keyframes_and_lights_stay_out_of_the_scene(
+    tmp_path, monkeypatch, capfd
+) -> None:
+    monkeypatch.setattr(robots, "_REGISTRY", dict(robots._REGISTRY))
+    monkeypatch.chdir(tmp_path)  # where MuJoCo would write MUJOCO_LOG.TXT
+    _standalone_turtlebot(tmp_path / "standalone.xml")
+    register_robot("standalone", tmp_path / "standalone.xml", TurtlebotAdapter)
+    plain = build_td_scene(TDConfig())
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # MuJoCo's "Attach conflict" is a Python warning too
+        scene = build_td_scene(TDConfig(turtlebot_robot="standalone"))
+    assert capfd.readouterr() == ("", ""), "nothing printed"
+    assert not (tmp_path / "MUJOCO_LOG.TXT").exists(), "nothing written"
+    model = scene.model
+    assert model.nkey == 0 and model.nlight == plain.model.nlight
+    assert model.opt.timestep == 0.02 and model.opt.density == 0.0
+    assert model.opt.integrator == mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    assert model.vis.map.znear == plain.model.vis.map.znear
+    # the same robot, so with its lights gone every camera sees exactly what it saw before
+    cameras = [r.camera_name for r in plain.robots.values()]
+    with CameraRenderer(plain.model) as a, CameraRenderer(model) as b:
+        assert np.array_equal(a.render(plain.data, cameras), b.render(scene.data, cameras))
+    scene.advance(1.0)
+    plain.advance(1.0)
+    assert np.array_equal(scene.data.qpos, plain.data.qpos)
+
+
+def test_advance_raises_when_mujoco_resets_unstable_physics(tmp_path, monkeypatch) -> None:
+    monkeypatch.setattr(robots, "_REGISTRY", dict(robots._REGISTRY))
+    monkeypatch.chdir(tmp_path)  # MuJoCo logs the instability to MUJOCO_LOG.TXT
+    stiff = TurtlebotConstants(yaw_kp=1e5, yaw_kv=0.0)  # far too stiff for a 20 ms step
+    register_robot("stiff", "robots/turtlebot.xml", TurtlebotAdapter, stiff)
+    builder = SceneBuilder("arenas/tool_delivery.xml", timestep=0.02)
+    builder.add_robot("tb", "stiff", (4.5, 2.5, 0.0))
+    scene = builder.build()
+    scene.robots["tb"].drive_to((4.5, 4.0))  # turning north: the heading servo explodes
+    with pytest.raises(PhysicsInstability) as err:
+        for _ in range(5):
+            scene.advance(1.0)
+    assert err.value.warning == "mjWARN_BADQACC" and err.value.robot == "tb"
+    assert "joint 'tb/yaw' of robot 'tb'" in str(err.value) and "reset" in str(err.value)
+    with pytest.raises(PhysicsInstability):  # and again: each advance is checked afresh
+        for _ in range(5):
+            scene.advance(1.0)

@@ -19,6 +19,7 @@ from maopg.sim.robots.base import (
     ArmAdapter,
     DroneAdapter,
     GroundAdapter,
+    PlanarBaseConstants,
     PlanarGroundAdapter,
     RobotAdapter,
 )
@@ -28,6 +29,7 @@ __all__ = [
     "ArmAdapter",
     "DroneAdapter",
     "GroundAdapter",
+    "PlanarBaseConstants",
     "PlanarGroundAdapter",
     "RobotAdapter",
     "RobotSpec",
@@ -66,7 +68,10 @@ class RobotSpec:
         return cls
 
     def resolve_constants(self) -> Any:
+        """The constants instance the robot is built with (None: the adapter's ``Constants()``)."""
         value = _resolve(self.constants)
+        if value is None:
+            value = self.adapter_class().Constants
         return value() if isinstance(value, type) else value
 
 

@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import mujoco
@@ -82,17 +83,26 @@ class RobotAdapter(ABC):
         return self.object_id(mujoco.mjtObj.mjOBJ_ACTUATOR, local)
 
     def set_position_gains(self, local: str, kp: float, kv: float) -> None:
-        """Write PD gains into a ``<position>`` actuator, so the constants are the one source."""
-        a = self.actuator_id(local)
-        self.model.actuator_gainprm[a, 0] = kp
-        self.model.actuator_biasprm[a, 1] = -kp
-        self.model.actuator_biasprm[a, 2] = -kv
+        """Make an actuator a PD servo, force = kp * (ctrl - q) - kv * qvel.
+
+        The gains come from the constants (the one source), and the servo's form is written
+        too, so whatever the robot file declares on the joint (``<position>``, ``<velocity>``,
+        ``<motor>``, as robot collections ship them) becomes the servo this adapter commands.
+        """
+        self._set_servo(local, kp, (0.0, -kp, -kv))
 
     def set_velocity_gain(self, local: str, kv: float) -> None:
-        """Write the gain of a ``<velocity>`` servo actuator (force = kv * (ctrl - qvel))."""
+        """Make an actuator a velocity servo, force = kv * (ctrl - qvel) (see
+        :meth:`set_position_gains`: a ``<position>`` actuator on a slide works too)."""
+        self._set_servo(local, kv, (0.0, 0.0, -kv))
+
+    def _set_servo(self, local: str, gain: float, bias: tuple[float, float, float]) -> None:
         a = self.actuator_id(local)
-        self.model.actuator_gainprm[a, 0] = kv
-        self.model.actuator_biasprm[a, 2] = -kv
+        model = self.model
+        model.actuator_gaintype[a] = mujoco.mjtGain.mjGAIN_FIXED
+        model.actuator_biastype[a] = mujoco.mjtBias.mjBIAS_AFFINE
+        model.actuator_gainprm[a, 0] = gain
+        model.actuator_biasprm[a, :3] = bias
 
     # --- state -----------------------------------------------------------------------------
     @property
@@ -150,10 +160,18 @@ class GroundAdapter(RobotAdapter):
 
 
 class DroneAdapter(RobotAdapter):
-    """A flying robot commanded by 3-D position targets."""
+    """A flying robot commanded by 3-D position targets and a heading.
+
+    Its root body carries a free joint (tasks place it in the air by writing its height), and
+    its constants give ``max_speed``.
+    """
 
     @abstractmethod
-    def fly_to(self, xyz: Sequence[float], speed: float | None = None) -> None: ...
+    def fly_to(
+        self, xyz: Sequence[float], speed: float | None = None, yaw: float | None = None
+    ) -> None:
+        """Fly toward ``xyz`` at most at ``speed`` (default ``max_speed``) and turn to ``yaw``
+        (rad about world z; None: the adapter's choice, e.g. the direction of travel)."""
 
     def at(self, xyz: Sequence[float], tol: float) -> bool:
         return float(np.linalg.norm(self.data.xpos[self.root_body_id] - np.asarray(xyz))) <= tol
@@ -161,6 +179,15 @@ class DroneAdapter(RobotAdapter):
 
 class ArmAdapter(RobotAdapter):
     """A fixed-base manipulator with joint-space PD control, analytic IK and a gripper."""
+
+    #: Local name of the body a grasped object is welded to. A class attribute, because a
+    #: scene declares its welds before it is compiled, i.e. before any adapter exists.
+    gripper: ClassVar[str] = "gripper"
+
+    @property
+    def gripper_body(self) -> str:
+        """Full name of the body a grasped object is welded to."""
+        return self.name(self.gripper)
 
     @abstractmethod
     def set_arm_targets(self, q: np.ndarray) -> None: ...
@@ -180,11 +207,34 @@ class ArmAdapter(RobotAdapter):
     def grasp_site_position(self) -> np.ndarray: ...
 
 
-class PlanarGroundAdapter(GroundAdapter):
-    """Holonomic planar base: joints ``x``/``y`` (slide) and ``yaw`` (hinge) on the root body.
+@dataclass(frozen=True)
+class PlanarBaseConstants:
+    """What :class:`PlanarGroundAdapter` reads from a robot's constants.
 
-    Actuators ``vx``/``vy`` are velocity servos and ``yaw`` a position (PD) servo; their gains
-    come from the constants (``kv``, ``yaw_kp``, ``yaw_kv``). ``drive_to`` commands, at each
+    A robot's own constants subclass it, give the numbers defaults and add their own fields;
+    the names default to the shipped bases', so a robot whose file names them differently (as
+    robot collections do: ``joint_x``, ``base_x_slide``, ...) says so here instead of needing
+    an adapter of its own.
+    """
+
+    max_speed: float  # m/s
+    #: Velocity-servo gain of the two slides (N per m/s).
+    kv: float
+    #: Heading PD servo (N m per rad, N m per rad/s).
+    yaw_kp: float
+    yaw_kv: float
+    #: The root body's slide x, slide y and yaw hinge joints (local names).
+    joints: tuple[str, str, str] = ("x", "y", "yaw")
+    #: The actuators on those joints, in the same order.
+    actuators: tuple[str, str, str] = ("vx", "vy", "yaw")
+
+
+class PlanarGroundAdapter(GroundAdapter):
+    """Holonomic planar base: slide x/y joints and a yaw hinge on the root body.
+
+    Joint and actuator names come from the constants (:class:`PlanarBaseConstants`). The
+    adapter makes the slides' actuators velocity servos and the hinge's a position (PD) servo,
+    with the constants' gains (``kv``, ``yaw_kp``, ``yaw_kv``). ``drive_to`` commands, at each
     ``apply()``, full speed toward the target while it is far, and in the last control period
     the velocity that covers exactly the remaining distance. That velocity accounts for the
     servo's first-order lag (time constant ``tau = mass / kv``): a period of length ``T``
@@ -201,12 +251,14 @@ class PlanarGroundAdapter(GroundAdapter):
     ) -> None:
         super().__init__(model, data, prefix, constants)
         c = self.constants
-        self._ax, self._ay, self._ayaw = (self.actuator_id(n) for n in ("vx", "vy", "yaw"))
-        self.set_velocity_gain("vx", c.kv)
-        self.set_velocity_gain("vy", c.kv)
-        self.set_position_gains("yaw", c.yaw_kp, c.yaw_kv)
-        self._q_yaw = self.joint_qpos_adr("yaw")
-        self._v_x, self._v_y = self.joint_dof_adr("x"), self.joint_dof_adr("y")
+        act_x, act_y, act_yaw = c.actuators
+        joint_x, joint_y, joint_yaw = c.joints
+        self._ax, self._ay, self._ayaw = (self.actuator_id(n) for n in c.actuators)
+        self.set_velocity_gain(act_x, c.kv)
+        self.set_velocity_gain(act_y, c.kv)
+        self.set_position_gains(act_yaw, c.yaw_kp, c.yaw_kv)
+        self._q_yaw = self.joint_qpos_adr(joint_yaw)
+        self._v_x, self._v_y = self.joint_dof_adr(joint_x), self.joint_dof_adr(joint_y)
         self._tau = float(model.body_subtreemass[self.root_body_id]) / c.kv
         # The slide axes live in the attachment frame (rotated by the spawn yaw): world->joint.
         quat = model.body_quat[self.root_body_id]

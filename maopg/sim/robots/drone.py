@@ -10,10 +10,14 @@ Control is a cascade run at ``control_hz`` (the scene calls :meth:`DroneAdapter.
    ``max_tilt``, plus gravity compensation;
 3. acceleration -> attitude: the body z axis must point along ``a`` (a quadrotor can only push
    along z); collective thrust ``m * a . z_body``;
-4. attitude PD, tilt and yaw decoupled: ``tau_xy = J (k_p e_tilt - k_d w)`` with the tilt error
-   the rotation taking the body z axis onto the desired one, and a capped yaw PD;
-5. mixing: the thrust + torque wrench is mapped to the four rotor forces by the inverse of the
-   matrix built from the rotor sites and actuator gears in the compiled model.
+4. attitude PD, tilt and yaw decoupled: angular accelerations ``k_p e_tilt - k_d w`` with the
+   tilt error the rotation taking the body z axis onto the desired one, and a yaw PD; torque =
+   the body-frame inertia (MuJoCo's principal moments rotated by ``body_iquat``) times them,
+   the yaw torque capped;
+5. mixing: the thrust + torque wrench is mapped to the rotor forces by the inverse of the
+   matrix built from the rotor sites and actuator gears in the compiled model. A layout that
+   cannot produce all four (say, rotors without drag torque: no yaw) is rejected when the
+   adapter binds, naming what is missing, instead of silently ignoring those commands.
 
 Everything inside ``apply()`` is plain float arithmetic: it runs ~50 times per 0.5 s tick.
 """
@@ -29,6 +33,9 @@ import mujoco
 import numpy as np
 
 from maopg.sim.robots import base
+
+WRENCH_AXES = ("thrust", "roll torque", "pitch torque", "yaw torque")
+"""The body wrench the mixer maps onto rotor forces, in its row order."""
 
 
 @dataclass(frozen=True)
@@ -74,7 +81,7 @@ class DroneAdapter(base.DroneAdapter):
         c = self.constants
         root = self.root_body_id
         self._mass = float(model.body_subtreemass[root])
-        self._inertia = tuple(float(v) for v in model.body_inertia[root])
+        self._inertia = tuple(tuple(float(v) for v in row) for row in self.inertia)
         self._gravity = -float(model.opt.gravity[2])
         self._act = [self.actuator_id(n) for n in c.rotors]
         self._ctrl_lo = [float(model.actuator_ctrlrange[a, 0]) for a in self._act]
@@ -86,8 +93,26 @@ class DroneAdapter(base.DroneAdapter):
         self._vel = dof  # qvel[dof:dof+3]: world linear velocity; [dof+3:dof+6]: body angular
         self.reset()
 
+    @property
+    def inertia(self) -> np.ndarray:
+        """(3, 3) inertia of the root body about its centre of mass, in the body frame.
+
+        MuJoCo stores principal moments (``body_inertia``) in the inertia frame ``body_iquat``;
+        a robot file with a full or rotated inertia has a rotated frame, and the attitude loop
+        needs ``R diag(I) R^T``.
+        """
+        root = self.root_body_id
+        rot = np.empty(9)
+        mujoco.mju_quat2Mat(rot, self.model.body_iquat[root])
+        rot = rot.reshape(3, 3)
+        return rot @ np.diag(self.model.body_inertia[root]) @ rot.T
+
     def _mixer_matrix(self) -> np.ndarray:
-        """Inverse of rotor force -> body wrench (thrust z, torque x, y, z), from the model."""
+        """Inverse of rotor force -> body wrench (thrust z, torque x, y, z), from the model.
+
+        Raises ``ValueError`` when the rotors cannot produce every wrench axis: ``pinv`` would
+        return a mixer that silently maps that axis's commands to nothing.
+        """
         model = self.model
         wrench = np.zeros((4, len(self._act)))
         for j, a in enumerate(self._act):
@@ -104,7 +129,22 @@ class DroneAdapter(base.DroneAdapter):
             torque = np.cross(model.site_pos[site] - model.body_ipos[self.root_body_id], force)
             torque += rot @ gear[3:]
             wrench[:, j] = (force[2], torque[0], torque[1], torque[2])
-        return np.linalg.pinv(wrench)
+        mixer = np.linalg.pinv(wrench)
+        # (wrench @ mixer)[k, k] is the share of a command on axis k the rotors produce: 1 for
+        # an axis they control, less for one they cannot (0 when no rotor acts on it at all).
+        reproduced = np.diag(wrench @ mixer)
+        missing = [
+            axis for axis, share in zip(WRENCH_AXES, reproduced, strict=True) if share < 1.0 - 1e-6
+        ]
+        if missing:
+            raise ValueError(
+                f"{type(self).__name__} for '{self.prefix}': rotors "
+                f"{', '.join(self.constants.rotors)} cannot produce {' or '.join(missing)} (their "
+                f"wrench matrix has rank {np.linalg.matrix_rank(wrench)} of 4); a quadrotor yaws "
+                "by the rotors' drag torques: give each rotor actuator a gear[5] (N m per N) "
+                "with alternating signs"
+            )
+        return mixer
 
     # --- commands --------------------------------------------------------------------------
     def reset(self) -> None:
@@ -189,10 +229,13 @@ class DroneAdapter(base.DroneAdapter):
         ex_b = b0[0] * cx + b0[1] * cy + b0[2] * cz
         ey_b = b1[0] * cx + b1[1] * cy + b1[2] * cz
         yaw_err = base.wrap_angle(self._yaw_target - math.atan2(r[3], r[0]))
-        jx, jy, jz = self._inertia
-        tx = jx * (c.att_kp * ex_b - c.att_kd * wx)
-        ty = jy * (c.att_kp * ey_b - c.att_kd * wy)
-        tz = jz * (c.yaw_kp * yaw_err - c.yaw_kd * wz)
+        alx = c.att_kp * ex_b - c.att_kd * wx
+        aly = c.att_kp * ey_b - c.att_kd * wy
+        alz = c.yaw_kp * yaw_err - c.yaw_kd * wz
+        (jxx, jxy, jxz), (jyx, jyy, jyz), (jzx, jzy, jzz) = self._inertia
+        tx = jxx * alx + jxy * aly + jxz * alz
+        ty = jyx * alx + jyy * aly + jyz * alz
+        tz = jzx * alx + jzy * aly + jzz * alz
         tz = max(-c.max_yaw_torque, min(c.max_yaw_torque, tz))
         thrust = self._mass * (ax * b2[0] + ay * b2[1] + az * b2[2])
 

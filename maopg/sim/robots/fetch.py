@@ -45,7 +45,6 @@ class FetchAdapter(ArmAdapter):
     """
 
     Constants = FetchConstants
-    gripper: str = "gripper"
 
     def __init__(self, model, data, prefix, constants=None) -> None:
         super().__init__(model, data, prefix, constants)
@@ -61,11 +60,6 @@ class FetchAdapter(ArmAdapter):
         self._grasp = self.object_id(mujoco.mjtObj.mjOBJ_SITE, "grasp")
         self._target = self.joint_positions()
         self._closed = False
-
-    @property
-    def gripper_body(self) -> str:
-        """Full name of the body a grasped tool is welded to."""
-        return self.name(self.gripper)
 
     def set_initial_pose(self) -> None:
         """Start folded with the gripper open."""

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from maopg.sim.robots.base import PlanarGroundAdapter
+from maopg.sim.robots.base import PlanarBaseConstants, PlanarGroundAdapter
 
 
 @dataclass(frozen=True)
-class TurtlebotConstants:
+class TurtlebotConstants(PlanarBaseConstants):
     """Speeds and servo gains: the one place to tune the Turtlebot's low-level controller."""
 
     #: The canonical task moves a Turtlebot 0.6 m per 1-s tick.

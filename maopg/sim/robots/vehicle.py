@@ -14,11 +14,11 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from maopg.sim.robots.base import PlanarGroundAdapter
+from maopg.sim.robots.base import PlanarBaseConstants, PlanarGroundAdapter
 
 
 @dataclass(frozen=True)
-class VehicleConstants:
+class VehicleConstants(PlanarBaseConstants):
     """Speeds and servo gains of the vehicle (the one place they are set)."""
 
     max_speed: float = 0.5  # m/s (docs/DESIGN.md §7: the slow robot)

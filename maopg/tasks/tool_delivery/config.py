@@ -17,6 +17,12 @@ class Config(TaskConfig):
     timestep: float = 0.02  # stable for the servos and welds; 50 physics steps per tick
     turtlebot_robot: str = "turtlebot"
     fetch_robot: str = "fetch"
+    """An arm (``ArmAdapter``): it stands at ``fetch_base`` and must reach the shelf slots, the
+    desk slots and the baskets at the desk spots."""
+    fetch_base: tuple[float, float] = (0.9, 1.8)
+    """Planar position of the arm's base (m): the arena's Fetch spot beside the desk."""
+    desk_spots: tuple[tuple[float, float], tuple[float, float]] = ((0.8, 3.0), (1.2, 3.0))
+    """Where Turtlebot 0 / 1 waits for a pass (m): within the arm's reach with its basket."""
     human_stage_ticks: int = 18
     search_ticks: int = 6
     pass_ticks: int = 4

@@ -1,7 +1,9 @@
 """Layout facts and names of the canonical Tool Delivery task (docs/DESIGN.md §7).
 
 Metres in the 7 m x 5 m world. Everything here is plain data, shared by the scene, the options,
-the rules, the scripted policy and the tests, so no module repeats a coordinate or a name.
+the rules, the scripted policy and the tests, so no module repeats a coordinate or a name. What
+depends on the robots chosen — where the arm stands, where the Turtlebots wait for a pass — is
+in the config (``fetch_base``, ``desk_spots``) instead.
 """
 
 from __future__ import annotations
@@ -12,10 +14,7 @@ WORKSHOP = (6.0, 3.0)
 """WA0, where the human takes deliveries."""
 TOOL_ROOM_WAIT = (2.5, 3.5)
 """The tool-room wait spot (GoToTR)."""
-DESK_SPOTS = ((0.8, 3.0), (1.2, 3.0))
-"""Where Turtlebot 0 / 1 waits for a pass."""
 TURTLEBOT_STARTS = ((3.0, 1.5), (3.0, 2.5))
-FETCH_BASE = (0.9, 1.8)
 NUM_TOOLS = 3
 NUM_STAGES = 4
 """Stages 0..2 each need tool 0..2; stage 3 is the work after the last tool."""
@@ -24,8 +23,7 @@ AGENTS = ("turtlebot0", "turtlebot1", "fetch")
 T0, T1, FETCH = 0, 1, 2
 TURTLEBOTS = (T0, T1)
 
-# Scene names.
-GRIPPER = "fetch/gripper"
+# Scene names (the Fetch's gripper body is its adapter's, ``ArmAdapter.gripper``).
 TOOL = "tool{}/tool"
 """Body of tool j in the arena."""
 BASKET = "{}/basket"

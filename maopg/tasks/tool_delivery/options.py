@@ -8,6 +8,7 @@ activities are this task's own. They act on the task only through :class:`Delive
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any, Protocol
 
 from maopg.options.base import Execution, MobileTask, Option
@@ -15,7 +16,6 @@ from maopg.options.moves import EAST, NORTH, SOUTH, WEST, Move
 from maopg.options.navigation import GoTo
 from maopg.tasks.tool_delivery.config import Config
 from maopg.tasks.tool_delivery.constants import (
-    DESK_SPOTS,
     GET_TOOL,
     GO_TO_TR,
     GO_TO_WS,
@@ -66,11 +66,14 @@ class GetTool(Option[DeliveryRules]):
 
     name = GET_TOOL
 
+    def __init__(self, desk_spots: Sequence[Sequence[float]]) -> None:
+        self.desk_spots = desk_spots
+
     def start(self, task: DeliveryRules, ex: Execution) -> None:
         task.begin_waiting(ex.agent)
 
     def step(self, task: DeliveryRules, ex: Execution) -> None:
-        task.head_for(ex.agent, DESK_SPOTS[ex.agent])
+        task.head_for(ex.agent, self.desk_spots[ex.agent])
 
     def done(self, task: DeliveryRules, ex: Execution) -> bool:
         return task.waiting_over(ex.agent)
@@ -135,5 +138,9 @@ def option_sets(config: Config) -> list[tuple[Option[Any], ...]]:
         moves = (("North", NORTH), ("South", SOUTH), ("East", EAST), ("West", WEST))
         turtle: tuple[Option[Any], ...] = (*(Move(n, d) for n, d in moves), Stay())
     else:
-        turtle = (GoTo(GO_TO_WS, WORKSHOP), GoTo(GO_TO_TR, TOOL_ROOM_WAIT), GetTool())
+        turtle = (
+            GoTo(GO_TO_WS, WORKSHOP),
+            GoTo(GO_TO_TR, TOOL_ROOM_WAIT),
+            GetTool(config.desk_spots),
+        )
     return [turtle, turtle, fetch]

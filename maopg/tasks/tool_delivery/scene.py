@@ -9,14 +9,13 @@ import math
 from collections.abc import Sequence
 
 from maopg.sim.assets import ASSETS_DIR
+from maopg.sim.robots import ArmAdapter, get_robot
 from maopg.sim.scene import Scene, SceneBuilder
 from maopg.tasks.tool_delivery.config import Config
 from maopg.tasks.tool_delivery.constants import (
     AGENTS,
     BASKET,
     FETCH,
-    FETCH_BASE,
-    GRIPPER,
     NUM_TOOLS,
     TOOL,
     TURTLEBOT_STARTS,
@@ -26,6 +25,18 @@ from maopg.tasks.tool_delivery.constants import (
 ARENA = ASSETS_DIR / "arenas" / "tool_delivery.xml"
 
 
+def gripper_body(config: Config) -> str:
+    """The scene name of the body the arm welds a grasped tool to (its adapter says which)."""
+    spec = get_robot(config.fetch_robot)
+    arm = spec.adapter_class()
+    if not issubclass(arm, ArmAdapter):
+        raise ValueError(
+            f"fetch_robot={spec.name!r}: Tool Delivery's Fetch must be an arm, and "
+            f"{arm.__name__} is not an ArmAdapter"
+        )
+    return f"{AGENTS[FETCH]}/{arm.gripper}"
+
+
 def build_scene(
     config: Config, turtlebot_starts: Sequence[tuple[float, float]] = TURTLEBOT_STARTS
 ) -> Scene:
@@ -33,8 +44,8 @@ def build_scene(
     builder = SceneBuilder(ARENA, timestep=config.timestep, render_size=config.image_size)
     for w, (x, y) in zip(TURTLEBOTS, turtlebot_starts, strict=True):
         builder.add_robot(AGENTS[w], config.turtlebot_robot, (x, y, 0.0), yaw=math.pi)
-    builder.add_robot(AGENTS[FETCH], config.fetch_robot, (*FETCH_BASE, 0.0), yaw=0.0)
-    holders = [None, GRIPPER, *(BASKET.format(AGENTS[w]) for w in TURTLEBOTS)]
+    builder.add_robot(AGENTS[FETCH], config.fetch_robot, (*config.fetch_base, 0.0), yaw=0.0)
+    holders = [None, gripper_body(config), *(BASKET.format(AGENTS[w]) for w in TURTLEBOTS)]
     for j in range(NUM_TOOLS):
         builder.add_attachable(TOOL.format(j), holders)
     return builder.build()

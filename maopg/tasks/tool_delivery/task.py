@@ -30,10 +30,8 @@ from maopg.tasks.tool_delivery.config import Config
 from maopg.tasks.tool_delivery.constants import (
     AGENTS,
     BASKET,
-    DESK_SPOTS,
     FETCH,
     FETCH_OBS,
-    GRIPPER,
     LOCATIONS,
     MAX_STAGED_SEEN,
     NUM_STAGES,
@@ -146,7 +144,7 @@ class ToolDelivery(SceneTask):
         # a pass means having waited at the spot through the previous tick).
         reward = c.step_reward + self._advance_activity()
         for w in TURTLEBOTS:
-            s.at_desk[w] = s.getting_tool[w] and self.arrived(w, DESK_SPOTS[w])
+            s.at_desk[w] = s.getting_tool[w] and self.arrived(w, self.config.desk_spots[w])
             s.at_desk_ticks[w] += s.at_desk[w]
         reward += self._deliver()
         self._advance_human()
@@ -178,7 +176,7 @@ class ToolDelivery(SceneTask):
     def begin_waiting(self, w: int, *, primitive: bool = False) -> None:
         s = self.state
         if primitive:
-            s.getting_tool[w] = self.arrived(w, DESK_SPOTS[w])
+            s.getting_tool[w] = self.arrived(w, self.config.desk_spots[w])
         else:
             s.getting_tool[w] = True
             s.at_desk_ticks[w] = 0
@@ -271,7 +269,7 @@ class ToolDelivery(SceneTask):
         desk = self._sites[f"desk/slot{self._slot_of.get(a.tool, 0)}"]
         basket = self.scene.site_position(f"{AGENTS[a.arg]}/load")
         if not a.ok:  # reach over the desk spot, wherever the Turtlebot actually is
-            basket[:2] = DESK_SPOTS[a.arg]
+            basket[:2] = self.config.desk_spots[a.arg]
         if not a.ok and a.progress >= 1 and a.tool >= 0 and self._holding == a.tool:
             return desk  # take the tool back to where it was
         return (desk, basket + lift, basket + lift * 0.3, desk + lift)[a.progress]
@@ -321,7 +319,7 @@ class ToolDelivery(SceneTask):
 
     def _grasp(self, tool: int) -> None:
         self.fetch.set_gripper(True)
-        self.scene.attach(TOOL.format(tool), GRIPPER)
+        self.scene.attach(TOOL.format(tool), self.fetch.gripper_body)
         self._holding = tool
 
     def _release(self, holder: str | None) -> None:
@@ -372,7 +370,11 @@ class ToolDelivery(SceneTask):
             return obs
         layout = TURTLEBOT_OBS
         obs = layout.zeros()
-        spots = {"workshop": WORKSHOP, "tool_room": TOOL_ROOM_WAIT, "desk": DESK_SPOTS[agent]}
+        spots = {
+            "workshop": WORKSHOP,
+            "tool_room": TOOL_ROOM_WAIT,
+            "desk": self.config.desk_spots[agent],
+        }
         where = next((p for p, xy in spots.items() if self.arrived(agent, xy)), "moving")
         obs[layout["location"]][LOCATIONS.index(where)] = 1.0
         if where == "workshop":  # the human's stage is visible at WA0, the desk is not

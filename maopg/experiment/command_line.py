@@ -1,0 +1,67 @@
+"""What the two command lines share: plugins before anything else, and user errors as one line.
+
+Plugins (``--import MODULE``, repeatable, anywhere on the line; :mod:`maopg.plugins`) are
+imported *before* the real parser is built, because the parser's choices — tasks, methods — are
+the registries', which a plugin extends. A mistake of the user's (a bad setting, a missing run
+directory, a plugin that fails to import) ends the command with one line naming it and exit
+status 2; ``--debug`` shows the traceback instead.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Callable, Sequence
+
+from maopg.learner import CheckpointError
+from maopg.plugins import PluginError, load_plugins
+
+USER_ERRORS = (
+    ValueError,
+    KeyError,
+    FileNotFoundError,
+    FileExistsError,
+    CheckpointError,
+    PluginError,
+)
+"""What a user's input can cause; anything else is a bug and keeps its traceback."""
+
+
+def preparse(argv: Sequence[str] | None) -> tuple[argparse.Namespace, list[str]]:
+    """``--import`` and ``--debug`` out of ``argv``; the rest is for the command's parser."""
+    early = argparse.ArgumentParser(add_help=False)
+    early.add_argument("--import", dest="plugins", action="append", default=[])
+    early.add_argument("--debug", action="store_true")
+    known, rest = early.parse_known_args(list(sys.argv[1:] if argv is None else argv))
+    return known, rest
+
+
+def add_common_options(parser: argparse.ArgumentParser) -> None:
+    """Document ``--import`` and ``--debug`` in ``--help`` (:func:`preparse` reads them)."""
+    parser.add_argument(
+        "--import",
+        dest="plugins",
+        action="append",
+        default=[],
+        metavar="MODULE",
+        help="import MODULE (or a .py file) first: it may register tasks, robots, methods "
+        "(repeatable; see also MAOPG_PLUGINS)",
+    )
+    parser.add_argument("--debug", action="store_true", help="show tracebacks of user errors")
+
+
+def run_command(
+    prog: str, argv: Sequence[str] | None, command: Callable[[list[str], list[str]], int]
+) -> int:
+    """Load the plugins of ``argv``, then ``command(remaining arguments, plugins imported by
+    name)``; a user error prints ``prog: error: ...`` and returns 2 (unless ``--debug``)."""
+    early, rest = preparse(argv)
+    try:
+        plugins = load_plugins(early.plugins)
+        return command(rest, plugins)
+    except USER_ERRORS as err:
+        if early.debug:
+            raise
+        message = err.args[0] if isinstance(err, KeyError) and err.args else err
+        print(f"{prog}: error: {message}", file=sys.stderr)
+        return 2

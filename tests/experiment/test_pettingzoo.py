@@ -1,0 +1,128 @@
+"""An existing PettingZoo environment as a task (:mod:`maopg.tasks.pettingzoo_task`): the option
+contract, asynchronous decisions from an environment's "busy" infos, the PettingZoo API round
+trip, and learning — ``async`` and ``partial`` on MPE's Simple Spread (``mpe2``, a package this
+project did not write) beat its random policy."""
+
+from __future__ import annotations
+
+import csv
+import functools
+
+import numpy as np
+import pytest
+from gymnasium import spaces
+from pettingzoo import ParallelEnv
+from pettingzoo.test import parallel_api_test
+
+from maopg.env import make_env
+from maopg.env.pettingzoo import OptionParallelEnv
+from maopg.env.rollout import RandomPolicy, run_episode
+from maopg.experiment.train_cli import main as train_main
+from maopg.tasks import registry
+from maopg.tasks.pettingzoo_task import register_pettingzoo
+
+SPREAD = "mpe2.simple_spread_v3:parallel_env"
+SPREAD_KW = {"N": 3, "max_cycles": 25, "continuous_actions": False}
+
+
+class Couriers(ParallelEnv):
+    """Two agents whose action ``k`` keeps them busy for ``k`` more ticks (infos say so): a
+    macro-action simulator speaking PettingZoo. Reward: 1 per tick."""
+
+    metadata = {"name": "couriers_v0"}  # noqa: RUF012 (PettingZoo's convention)
+
+    def __init__(self) -> None:
+        self.possible_agents = ["a", "b"]
+
+    @functools.cache  # noqa: B019 (PettingZoo's convention)
+    def observation_space(self, agent: str) -> spaces.Box:
+        return spaces.Box(0.0, 10.0, (1,), np.float32)
+
+    @functools.cache  # noqa: B019
+    def action_space(self, agent: str) -> spaces.Discrete:
+        return spaces.Discrete(3)
+
+    def reset(self, seed=None, options=None):
+        self.agents = list(self.possible_agents)
+        self.left = dict.fromkeys(self.agents, 0)
+        self.t = 0
+        return self._obs(), {a: {"busy": False} for a in self.agents}
+
+    def step(self, actions):
+        self.t += 1
+        for a, k in actions.items():
+            self.left[a] = self.left[a] - 1 if self.left[a] > 0 else int(k)
+        infos = {a: {"busy": self.left[a] > 0} for a in self.agents}
+        done = dict.fromkeys(self.agents, False)
+        return self._obs(), dict.fromkeys(self.agents, 1.0), done, done, infos
+
+    def _obs(self):
+        return {a: np.array([self.t], np.float32) for a in self.agents}
+
+
+@pytest.fixture
+def tasks(monkeypatch):
+    """``spread`` and ``couriers`` registered for one test (the registry is restored after)."""
+    monkeypatch.setattr(registry, "_TASKS", dict(registry._TASKS))
+    register_pettingzoo("spread", SPREAD, env_kwargs=SPREAD_KW, max_ticks=25)
+    register_pettingzoo("couriers", f"{__name__}:Couriers", max_ticks=12, reward="sum")
+
+
+@pytest.mark.parametrize("strategy", ["continue", "any", "all", "primitive"])
+def test_the_option_contract_on_a_pettingzoo_environment(tasks, strategy):
+    env = make_env("spread", strategy, seed=0)
+    try:
+        spec = env.spec
+        assert spec.task == "spread" and spec.option_counts == (5, 5, 5)
+        assert [a.vector_size for a in spec.agents] == [18, 18, 18]
+        episode = run_episode(env, RandomPolicy(spec, seed=1), seed=3)
+        again = run_episode(env, RandomPolicy(spec, seed=1), seed=3)
+        assert episode.ticks == 25 and episode.rewards == again.rewards
+    finally:
+        env.close()
+
+
+def test_busy_agents_continue_their_action(tasks):
+    env = make_env("couriers", seed=0)
+    try:
+        point = env.reset(seed=0)
+        assert point.choosing.all()
+        point = env.step(np.array([2, 0]))  # a: busy for 2 more ticks; b: one tick
+        assert point.duration == 1 and list(point.choosing) == [False, True]
+        assert point.running[0] == 2
+        point = env.step(np.array([2, 0]))
+        assert list(point.choosing) == [False, True]
+        point = env.step(np.array([2, 0]))
+        assert list(point.choosing) == [True, True]  # a's action of 3 ticks has ended
+        assert point.ticks == 3 and point.reward == 2.0  # the sum of both agents' rewards
+    finally:
+        env.close()
+
+
+def test_the_pettingzoo_view_of_the_wrapped_environment(tasks):
+    parallel_api_test(OptionParallelEnv(make_env("spread", seed=0)), num_cycles=60)
+
+
+def _random_return(episodes: int) -> float:
+    env = make_env("spread", seed=0)
+    try:
+        policy = RandomPolicy(env.spec, seed=0)
+        return float(np.mean([run_episode(env, policy, seed=s).ret for s in range(episodes)]))
+    finally:
+        env.close()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("method", ["async", "partial"])
+def test_methods_learn_past_the_random_policy_on_simple_spread(tasks, tmp_path, method):
+    """30K samples (about 20 s each): the mean return of the last 5 iterations (200 episodes)
+    beats the random policy's over 200 episodes (−27.0) by a margin (measured here: async by
+    3.1, partial by 5.0; episodes last 25 ticks, so this is early in MAPPO's curve)."""
+    run = tmp_path / method
+    args = ["--task", "spread", "--method", method, "--total-samples", "30000", "--seed", "0"]
+    assert train_main([*args, "--run-dir", str(run), "video=false", "progress=false"]) == 0
+    with (run / "metrics.csv").open() as handle:
+        returns = [float(r["episode_return"]) for r in csv.DictReader(handle)]
+    late, random = float(np.mean(returns[-5:])), _random_return(200)
+    print(f"{method}: last 5 iterations {late:.2f} vs random {random:.2f}")
+    assert late > random + 2.0
