@@ -12,7 +12,8 @@ this order:
 2. the modules named in the environment variable :data:`ENV_VAR` (``MAOPG_PLUGINS=mypkg.a,
    mypkg.b``);
 3. the modules given to it (``--import MODULE`` on the command lines, a run's saved
-   ``plugins``). A name ending in ``.py`` is imported from that file.
+   ``plugins``). A name ending in ``.py`` is imported from that file (recorded by its absolute
+   path, so a resume from another directory finds it).
 
 Modules given by name are added to :data:`ENV_VAR` in this process's environment, which every
 child process inherits (``spawn`` workers, grid subprocesses), so they import them too.
@@ -78,7 +79,8 @@ def load_plugins(modules: Iterable[str] = ()) -> list[str]:
             except Exception as err:
                 raise PluginError(f"{key} ({point.value}) failed: {err}") from err
             _LOADED.add(key)
-    named = [*env_plugins(), *(m for m in modules if m not in env_plugins())]
+    given = [str(Path(m).resolve()) if m.endswith(".py") else m for m in modules]
+    named = [*env_plugins(), *(m for m in given if m not in env_plugins())]
     for name in named:
         _import(name)
     if named:

@@ -140,7 +140,7 @@ class OptionEnv:
                         ex.option.finish(task, ex)
                         ended[i] = True
             terminated = task.terminated()
-            truncated = not terminated and task.ticks >= task.config.max_ticks
+            truncated = not terminated and (task.ticks >= task.config.max_ticks or task.truncated())
             if self._decide(ended) or terminated or truncated:
                 break
 

@@ -29,6 +29,7 @@ import copy
 import dataclasses
 import hashlib
 import multiprocessing as mp
+import pickle
 import traceback
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Mapping, Sequence
@@ -228,27 +229,31 @@ _CALLS = ("spec", "reset", "step", "replay")
 """The :class:`LocalVectorEnv` methods a worker serves."""
 
 
-Registrations = tuple[dict[str, Any], list[RobotSpec]]
-"""The task's registry entry (as ``register_task`` arguments) and every robot's spec."""
-
-
-def _registrations(task: str) -> Registrations:
-    """What a worker needs of the parent's registries (picklable: classes travel by module and
-    name; mappings as plain dicts)."""
+def _registrations(task: str) -> bytes:
+    """What a worker needs of the parent's registries, pickled: classes travel by module and
+    name, so the worker unpickles them only after importing its plugins (a plugin loaded from
+    a file is a module only once imported). An entry that does not pickle (a lambda) is left
+    out: the worker then relies on the plugins alone."""
     entry = task_entry(task)
     fields = {f.name: getattr(entry, f.name) for f in dataclasses.fields(entry)}
     fields = {k: dict(v) if isinstance(v, Mapping) else v for k, v in fields.items()}
-    return fields, [get_robot(name) for name in robot_names()]
+    picklable = []
+    for item in (fields, *(get_robot(name) for name in robot_names())):
+        try:
+            picklable.append(pickle.dumps(item))
+        except (pickle.PicklingError, AttributeError, TypeError):
+            continue
+    return pickle.dumps(picklable)
 
 
-def _adopt(task: dict[str, Any], robots: list[RobotSpec]) -> None:
+def _adopt(registrations: bytes) -> None:
     """Register in this (spawned) process what the parent registered and this one lacks."""
-    known = set(robot_names())
-    for spec in robots:
-        if spec.name not in known:
-            register_robot(spec.name, spec.mjcf, spec.adapter, spec.constants)
-    if task["name"] not in task_names():
-        register_task(**task)
+    for item in map(pickle.loads, pickle.loads(registrations)):
+        if isinstance(item, RobotSpec):
+            if item.name not in robot_names():
+                register_robot(item.name, item.mjcf, item.adapter, item.constants)
+        elif item["name"] not in task_names():
+            register_task(**item)
 
 
 def _worker(
@@ -256,7 +261,7 @@ def _worker(
     config: EnvConfig,
     env_indices: list[int],
     run_seed: int,
-    registrations: Registrations,
+    registrations: bytes,
 ) -> None:
     """Worker process loop: build the environments, then serve ``(call, args)`` requests."""
     import maopg  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
@@ -265,7 +270,7 @@ def _worker(
     try:
         # The parent's plugins (inherited MAOPG_PLUGINS), then whatever else it registered.
         load_plugins()
-        _adopt(*registrations)
+        _adopt(registrations)
         envs = LocalVectorEnv(config, env_indices, run_seed)
         conn.send(("ok", None))
         while True:

@@ -52,9 +52,9 @@ class TrainConfig:
     num_envs: int = 4
     backend: str | None = None
     """Where the environments run: ``local`` (this process, one after another), ``threads``
-    (this process, stepped in parallel: 1.3-1.4x faster on 2 cores, ``bench/backends.py``) or
-    ``processes`` (``spawn`` workers); default ``processes`` when ``num_workers`` > 1, else
-    ``threads``. All give the same rollouts."""
+    (this process, stepped in parallel while ``mj_step`` and rendering release the GIL;
+    ``bench/backends.py`` measures the gain) or ``processes`` (``spawn`` workers); default
+    ``processes`` when ``num_workers`` > 1, else ``threads``. All give the same rollouts."""
     num_workers: int = 0
     """Worker processes of the ``processes`` backend (threads of ``threads``: at least 2)."""
     gamma: float = 0.99

@@ -99,8 +99,20 @@ def _saved_plugins(path: Path) -> list[str]:
         raise ValueError(f"{path} is not valid JSON: {err}") from None
 
 
+def _saved_run_plugins(argv: Sequence[str]) -> list[str]:
+    """The plugins of the run that ``--resume --run-dir DIR`` continues, imported before the
+    parser is built: its ``--task`` / ``--method`` may be theirs."""
+    early = argparse.ArgumentParser(add_help=False)
+    early.add_argument("--resume", action="store_true")
+    early.add_argument("--run-dir")
+    known, _ = early.parse_known_args(argv)
+    saved = Path(known.run_dir) / CONFIG if known.resume and known.run_dir else None
+    return _saved_plugins(saved) if saved is not None and saved.exists() else []
+
+
 def _train(argv: list[str], plugins: list[str]) -> int:
-    config, args = parse_args(argv, plugins)
+    plugins = [*plugins, *load_plugins(_saved_run_plugins(argv))]
+    config, args = parse_args(argv, list(dict.fromkeys(plugins)))
     from maopg.experiment.trainer import train
 
     run_dir = train(config, resume=args.resume, overwrite=args.overwrite)

@@ -342,14 +342,3 @@ def cmd_check_robot(args: argparse.Namespace) -> int:
     results = check_robot(args.robot, role, args.timestep)
     print(format_report(args.robot, role, results))
     return 0 if all(r.passed for r in results) else 1
-
-
-def main_check_robot(argv: Sequence[str] | None = None) -> int:
-    """``python -m maopg.sim.checks --robot NAME [--role ROLE]``, the same as ``check-robot``."""
-    parser = argparse.ArgumentParser(prog="check-robot", description=__doc__.split("\n")[0])
-    add_check_robot_arguments(parser)
-    return cmd_check_robot(parser.parse_args(argv))
-
-
-if __name__ == "__main__":
-    raise SystemExit(main_check_robot())

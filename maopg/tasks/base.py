@@ -98,6 +98,11 @@ class Task(ABC):
         """Whether the episode counts as a success (defaults to termination)."""
         return self.terminated()
 
+    def truncated(self) -> bool:
+        """The task's own time limit ended the episode before ``max_ticks`` (a wrapped simulator
+        with a horizon of its own); the learner then bootstraps, as at ``max_ticks``."""
+        return False
+
     # ----------------------------------------------------------------- observations
     @abstractmethod
     def observe(self, agent: int) -> np.ndarray:

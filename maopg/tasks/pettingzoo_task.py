@@ -15,8 +15,8 @@ The team's reward per tick is the mean (or, with ``reward="sum"``, the sum) of t
 rewards. An agent that must not act this tick — idle under ``all``, interrupted under ``any`` —
 sends ``noop_action``. Observations are the environment's, flattened to float32 (a ``Dict``
 observation's ``observation`` entry; its ``action_mask``, or an ``action_mask`` in the infos,
-masks the options). The episode ends when every agent is terminated, or at ``max_ticks``, which
-must not exceed the environment's own horizon.
+masks the options). The episode ends when every agent is terminated, and is truncated at
+``max_ticks`` or when the environment truncates every agent that is not terminated.
 """
 
 from __future__ import annotations
@@ -103,9 +103,6 @@ class PettingZooTask(Task):
                 )
             self._sizes.append(int(action.n))
         self._options = [tuple(Action(k) for k in range(n)) for n in self._sizes]
-        horizon = getattr(self.env.unwrapped, "max_cycles", None)
-        if horizon is not None and config.max_ticks > horizon:
-            raise ValueError(f"max_ticks ({config.max_ticks}) exceeds the environment's {horizon}")
         self.reset(0)
         self._layouts = [ObsLayout.of(observation=len(v)) for v in self._obs]
 
@@ -132,6 +129,7 @@ class PettingZooTask(Task):
         ]
         self._busy = [bool(infos.get(a, {}).get(self.config.busy_key, False)) for a in self._agents]
         self._done = [False] * len(self._agents)
+        self._cut = [False] * len(self._agents)
         self._actions = [self.config.noop_action] * len(self._agents)
         self._ticks = 0
 
@@ -149,16 +147,15 @@ class PettingZooTask(Task):
 
     def tick(self) -> float:
         live = set(self.env.agents)
-        if not live:
-            raise RuntimeError(f"{self.config.env} ended its episode before max_ticks")
         actions = {a: int(self._actions[i]) for i, a in enumerate(self._agents) if a in live}
-        observations, rewards, terminations, _, infos = self.env.step(actions)
+        observations, rewards, terminations, truncations, infos = self.env.step(actions)
         for i, a in enumerate(self._agents):
             if a in observations:
                 self._obs[i] = self._flat(observations[a])
                 self._masks[i] = self._mask(observations[a], infos.get(a, {}), i)
             self._busy[i] = bool(infos.get(a, {}).get(self.config.busy_key, False))
             self._done[i] = self._done[i] or bool(terminations.get(a, False))
+            self._cut[i] = self._cut[i] or bool(truncations.get(a, False))
         self._ticks += 1
         values = [float(rewards.get(a, 0.0)) for a in self._agents]
         return float(np.mean(values) if self.config.reward == "mean" else np.sum(values))
@@ -169,6 +166,10 @@ class PettingZooTask(Task):
 
     def terminated(self) -> bool:
         return all(self._done)
+
+    def truncated(self) -> bool:
+        """Every agent is done, some by the environment's own time limit."""
+        return all(d or c for d, c in zip(self._done, self._cut, strict=True)) and any(self._cut)
 
     # ----------------------------------------------------------------- observations
     def observe(self, agent: int) -> np.ndarray:
@@ -208,19 +209,11 @@ def register_pettingzoo(
             f"unknown settings {unknown} for a PettingZoo task; known: {sorted(known)}"
         )
     defaults = {"task_name": name, "env": env, **settings}
-    config = dataclasses.make_dataclass(
-        f"{name.title().replace('_', '')}Config",
-        [
-            (
-                k,
-                Any,
-                field(default=v)
-                if not isinstance(v, dict)
-                else field(default_factory=lambda v=v: dict(v)),
-            )
-            for k, v in defaults.items()
-        ],
-        bases=(PettingZooConfig,),
-        frozen=True,
+    return register_task(
+        name,
+        PettingZooTask,
+        config=PettingZooConfig,
+        defaults=defaults,
+        overwrite=overwrite,
+        **entry,
     )
-    return register_task(name, PettingZooTask, config=config, overwrite=overwrite, **entry)

@@ -64,6 +64,9 @@ class TaskEntry:
     """Return threshold of the samples-to-threshold tables (``None``: no such column)."""
     grid_overrides: Mapping[str, tuple[str, ...]] = field(default_factory=dict)
     """Method name -> extra training ``key=value`` overrides of that method's grid cells."""
+    defaults: Mapping[str, Any] = field(default_factory=dict)
+    """Config settings this registration changes from the config class's own defaults (one
+    class registered as several tasks: each wrapped PettingZoo environment, say)."""
 
     def task_class(self) -> type[Task]:
         cls = _resolve(self.task)
@@ -98,6 +101,7 @@ def register_task(
     grid_seeds: tuple[int, ...] = (0,),
     threshold: float | None = None,
     grid_overrides: Mapping[str, tuple[str, ...]] | None = None,
+    defaults: Mapping[str, Any] | None = None,
     overwrite: bool = False,
 ) -> TaskEntry:
     """Register task ``name`` (a user's task plugs in here) and return its entry.
@@ -125,6 +129,7 @@ def register_task(
         grid_seeds=tuple(grid_seeds),
         threshold=threshold,
         grid_overrides=MappingProxyType(dict(grid_overrides or {})),
+        defaults=MappingProxyType(dict(defaults or {})),
     )
     _TASKS[name] = entry
     return entry
@@ -147,9 +152,11 @@ def task_class(name: str) -> type[Task]:
 
 
 def make_config(name: str, overrides: Mapping[str, Any] | None = None) -> TaskConfig:
-    """The task's default config with ``overrides`` applied (unknown keys are an error)."""
-    config = task_entry(name).config_class()()
-    overrides = dict(overrides or {})
+    """The task's default config (its registration's ``defaults`` applied) with ``overrides``
+    applied (unknown keys are an error)."""
+    entry = task_entry(name)
+    config = entry.config_class()()
+    overrides = {**entry.defaults, **(overrides or {})}
     fields = {f.name for f in dataclasses.fields(config)}
     unknown = sorted(set(overrides) - fields)
     if unknown:

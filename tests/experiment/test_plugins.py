@@ -70,7 +70,9 @@ def test_a_users_task_trains_in_workers_resumes_evaluates_and_films(tmp_path):
         reader.close()
     assert len(frames) == 61 and frames[0].std() > 0  # 60 ticks + the reset frame
 
-    resumed = _run("train", "--resume", "--run-dir", str(run), "--total-samples", "800")
+    # the saved plugins are imported before the parser checks --task's choices
+    resume = ["--resume", "--run-dir", str(run), "--task", "berries", "--total-samples", "800"]
+    resumed = _run("train", *resume)
     assert resumed.returncode == 0, resumed.stderr
     assert json.loads((run / "done.json").read_text())["samples"] >= 800
 
@@ -86,10 +88,25 @@ def test_the_environment_variable_and_a_file_path_work_like_import(tmp_path):
     scripted = ["eval", "evaluate", "--reference", "scripted", "--task", "berries"]
     by_env = _run(*scripted, "--episodes", "2", env={ENV_VAR: "examples.berries"})
     assert by_env.returncode == 0 and "| scripted | berries |" in by_env.stdout, by_env.stderr
-    # from elsewhere (no clone on the path): the installed command line and a file
+    # from elsewhere (no clone on the path): the installed command line and a file, which
+    # spawned workers import too (by its absolute path) before they unpickle its classes
     installed = ["maopg.experiment.eval_cli", *scripted[1:]]
-    by_file = _run(*installed, "--import", str(REPO / "examples" / "berries.py"), cwd=tmp_path)
+    plugin = ["--import", "../examples/berries.py"]
+    elsewhere = tmp_path / "elsewhere"
+    (tmp_path / "examples").mkdir()
+    (tmp_path / "examples" / "berries.py").write_text(
+        (REPO / "examples" / "berries.py").read_text()
+    )
+    elsewhere.mkdir()
+    by_file = _run(*installed, *plugin, cwd=elsewhere)
     assert by_file.returncode == 0, by_file.stderr
+    run = tmp_path / "run"
+    train = ["maopg.experiment.train_cli", *plugin, "--task", "berries", *QUICK, "video=false"]
+    train += ["backend=processes", "num_workers=2", "--total-samples", "400", "--run-dir", str(run)]
+    trained = _run(*train, cwd=elsewhere)
+    assert trained.returncode == 0, trained.stderr
+    resume = ["maopg.experiment.train_cli", "--resume", "--run-dir", str(run)]
+    assert _run(*resume, "--total-samples", "800", cwd=REPO).returncode == 0  # another cwd
 
 
 def test_an_installed_packages_entry_point_registers_its_task(tmp_path):

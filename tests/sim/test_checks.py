@@ -6,8 +6,9 @@ import re
 
 import pytest
 
+from maopg.experiment.eval_cli import main as eval_main
 from maopg.sim import robots
-from maopg.sim.checks import check_robot, format_report, main_check_robot
+from maopg.sim.checks import check_robot, format_report
 from maopg.sim.robots import ASSETS_DIR, register_robot
 from maopg.sim.robots.turtlebot import TurtlebotConstants
 
@@ -69,11 +70,11 @@ def test_a_ground_robot_whose_physics_mujoco_resets_fails(tmp_path, monkeypatch,
 def test_check_robot_command_prints_figures_and_sets_the_exit_status(
     capsys, tmp_path, monkeypatch, registry
 ) -> None:
-    assert main_check_robot(["--robot", "turtlebot", "--role", "ground"]) == 0
+    assert eval_main(["check-robot", "--robot", "turtlebot", "--role", "ground"]) == 0
     out = capsys.readouterr().out
     assert "robot 'turtlebot' as ground:" in out and out.rstrip().endswith("all checks passed")
     assert "PASS  reach 1" in out and "(<= 0.2)" in out  # the heading threshold
-    assert main_check_robot(["--robot", stiff_turtlebot(tmp_path, monkeypatch)]) == 1
+    assert eval_main(["check-robot", "--robot", stiff_turtlebot(tmp_path, monkeypatch)]) == 1
     assert "FAILED: reach 1, reach 2, heading, hold, stable" in capsys.readouterr().out
 
 
