@@ -63,7 +63,7 @@ def main() -> None:
             same &= all(t == traces[0] for t in traces)
         medians = {b: statistics.median(v) for b, v in rates.items()}
         rows.append((task, "RGB" if images else "state", medians, same))
-    print("## Vector-environment backends (`bench/backends.py`)\n")
+    print("### Vector-environment backends (`bench/backends.py`)\n")
     print(markdown())
     print(f"- 4 environments, {args.steps} option steps, {args.rounds} rounds, 2 threads/workers\n")
     print("| task | observations | local ticks/s | threads | processes | identical rollouts |")
