@@ -1,5 +1,6 @@
-"""Command line: ``python -m eval evaluate|video|plot|table|reproduce ...`` (``maopg-eval``
-once installed).
+"""Evaluate, film, plot, tabulate and reproduce trained policies (``python -m eval``).
+
+Installed, the same command line is ``maopg-eval``.
 
 python -m eval evaluate --checkpoint runs/tool_delivery/async/seed0 --episodes 20
 python -m eval evaluate --reference scripted --task tool_delivery --episodes 10

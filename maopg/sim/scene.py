@@ -19,6 +19,7 @@ a tick whose physics was reset is never taken for a real one.
 
 from __future__ import annotations
 
+import logging
 import math
 from collections.abc import Sequence
 from pathlib import Path
@@ -34,6 +35,22 @@ WORLD = "world"
 
 class MJCFError(ValueError):
     """An MJCF file failed to load or compile; the message names the file(s)."""
+
+
+_MUJOCO_LOG = logging.getLogger("maopg.mujoco")
+
+
+def _log_warning(message: str) -> None:
+    """MuJoCo's warnings go to the ``maopg.mujoco`` logger: MuJoCo's own handler prints them
+    and appends them to ``MUJOCO_LOG.TXT`` in the working directory, a file no run of ours
+    should leave behind (:class:`PhysicsInstability` carries the ones that matter to an
+    episode). Logging, unlike ``warnings.warn`` under ``-W error``, never raises — this runs
+    inside a C callback."""
+    _MUJOCO_LOG.warning("MuJoCo: %s", message)
+
+
+if mujoco.get_mju_user_warning() is None:  # a user's own handler stays in place
+    mujoco.set_mju_user_warning(_log_warning)
 
 
 class PhysicsInstability(RuntimeError):

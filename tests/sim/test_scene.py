@@ -230,7 +230,7 @@ def test_a_robot_files_settings_keyframes_and_lights_stay_out_of_the_scene(
 
 def test_advance_raises_when_mujoco_resets_unstable_physics(tmp_path, monkeypatch) -> None:
     monkeypatch.setattr(robots, "_REGISTRY", dict(robots._REGISTRY))
-    monkeypatch.chdir(tmp_path)  # MuJoCo logs the instability to MUJOCO_LOG.TXT
+    monkeypatch.chdir(tmp_path)  # where MuJoCo's own handler would write MUJOCO_LOG.TXT
     stiff = TurtlebotConstants(yaw_kp=1e5, yaw_kv=0.0)  # far too stiff for a 20 ms step
     register_robot("stiff", "robots/turtlebot.xml", TurtlebotAdapter, stiff)
     builder = SceneBuilder("arenas/tool_delivery.xml", timestep=0.02)
@@ -245,3 +245,4 @@ def test_advance_raises_when_mujoco_resets_unstable_physics(tmp_path, monkeypatc
     with pytest.raises(PhysicsInstability):  # and again: each advance is checked afresh
         for _ in range(5):
             scene.advance(1.0)
+    assert not (tmp_path / "MUJOCO_LOG.TXT").exists()  # MuJoCo's warnings are logged instead
