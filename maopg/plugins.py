@@ -80,7 +80,7 @@ def load_plugins(modules: Iterable[str] = ()) -> list[str]:
                 raise PluginError(f"{key} ({point.value}) failed: {err}") from err
             _LOADED.add(key)
     given = [str(Path(m).resolve()) if m.endswith(".py") else m for m in modules]
-    named = [*env_plugins(), *(m for m in given if m not in env_plugins())]
+    named = list(dict.fromkeys([*env_plugins(), *given]))
     for name in named:
         _import(name)
     if named:

@@ -80,8 +80,7 @@ def parse_args(
             probe = TrainConfig.from_dict(merge(base, named)).resolved()
             saved = Path(probe.run_dir) / CONFIG  # type: ignore[arg-type]
             if saved.exists():
-                plugins = [*_saved_plugins(saved), *plugins]
-                load_plugins(plugins)
+                load_plugins(_saved_plugins(saved))
                 base = TrainConfig.load(saved).to_dict()
         values = parse_overrides(args.overrides, named.get("method", base["method"]))
         values.update(named)
