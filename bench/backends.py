@@ -9,28 +9,36 @@ tick counts of every step). Figures are low-level ticks per second, median over 
 
 ``local`` steps the environments one after another, ``threads`` on 2 threads of this process
 (``mj_step`` and rendering release the GIL), ``processes`` in 2 ``spawn``ed workers
-(observations cross a pipe).
+(observations cross a pipe), ``ray`` in 2 Ray actors of a local Ray instance started once for
+the whole benchmark (observations cross Ray's object store), and ``ray×1`` in one actor holding
+all 4 environments: it steps them one after another like ``local``, so its ratio to ``local`` is
+Ray's own overhead at the same number of environments (issue 16: at most 15%). Without Ray
+installed (``pip install 'maopg[ray]'``) the Ray columns are left out.
 """
 
 from __future__ import annotations
 
 import argparse
+import logging
 import statistics
 import time
 
 import numpy as np
 
+from maopg.env.ray_backend import ray_available
 from maopg.env.rollout import RandomPolicy
 from maopg.env.vector import EnvConfig, SeededVectorEnv
 from maopg.experiment.sysinfo import markdown
 
-BACKENDS = ("local", "threads", "processes")
+WORKERS = {"local": 0, "threads": 2, "processes": 2, "ray": 2, "ray×1": 1}
+"""Column → workers (threads, processes, actors)."""
 CASES = (("tool_delivery", False), ("tool_delivery", True), ("water_filling", True))
 
 
-def collect(config: EnvConfig, backend: str, steps: int) -> tuple[float, list]:
+def collect(config: EnvConfig, column: str, steps: int) -> tuple[float, list]:
     """(ticks per second, the rollout's trace) of ``steps`` lockstep option steps."""
-    envs = SeededVectorEnv(config, num_envs=4, seed=0, backend=backend, num_workers=2)
+    backend, workers = column.partition("×")[0], WORKERS[column]
+    envs = SeededVectorEnv(config, num_envs=4, seed=0, backend=backend, num_workers=workers)
     try:
         envs.reset()
         policy, ticks, trace = RandomPolicy(envs.spec, 0), 0, []
@@ -49,27 +57,37 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=200)
     parser.add_argument("--rounds", type=int, default=3)
     args = parser.parse_args()
+    conditions = markdown()
+    columns = [c for c in WORKERS if ray_available() or not c.startswith("ray")]
+    if ray_available():
+        import ray
+
+        ray.init(num_cpus=2, include_dashboard=False, logging_level=logging.WARNING)
     rows = []
     for task, images in CASES:
         config = EnvConfig(task=task, strategy="continue", images=images)
-        rates: dict[str, list[float]] = {b: [] for b in BACKENDS}
+        rates: dict[str, list[float]] = {c: [] for c in columns}
         same = True
         for _ in range(args.rounds):
             traces = []
-            for backend in BACKENDS:
-                rate, trace = collect(config, backend, args.steps)
-                rates[backend].append(rate)
+            for column in columns:
+                rate, trace = collect(config, column, args.steps)
+                rates[column].append(rate)
                 traces.append(trace)
             same &= all(t == traces[0] for t in traces)
-        medians = {b: statistics.median(v) for b, v in rates.items()}
+        medians = {c: statistics.median(v) for c, v in rates.items()}
         rows.append((task, "RGB" if images else "state", medians, same))
     print("### Vector-environment backends (`bench/backends.py`)\n")
-    print(markdown())
-    print(f"- 4 environments, {args.steps} option steps, {args.rounds} rounds, 2 threads/workers\n")
-    print("| task | observations | local ticks/s | threads | processes | identical rollouts |")
-    print("|---|---|---|---|---|---|")
+    print(conditions)
+    print(
+        f"- 4 environments, {args.steps} option steps, {args.rounds} rounds; 2 threads, "
+        "processes or Ray actors (`ray×1`: one actor with all 4 environments)\n"
+    )
+    others = columns[1:]
+    print(f"| task | observations | local ticks/s | {' | '.join(others)} | identical rollouts |")
+    print("|---|---|---|" + "---|" * len(others) + "---|")
     for task, kind, m, same in rows:
-        ratios = [f"{m[b]:,.0f} ({m[b] / m['local']:.2f}×)" for b in ("threads", "processes")]
+        ratios = [f"{m[c]:,.0f} ({m[c] / m['local']:.2f}×)" for c in others]
         print(f"| {task} | {kind} | {m['local']:,.0f} | {' | '.join(ratios)} | {same} |")
 
 

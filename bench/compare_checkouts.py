@@ -1,7 +1,7 @@
-"""Old vs new checkout: the simulation-core and Tool Delivery throughput benchmarks, side by side.
+"""Old vs new checkout: simulation-core, Tool Delivery and training-loop throughput, side by side.
 
-Run: ``.venv/bin/python bench/compare_checkouts.py [--ref 0c4d129] [--rounds N]``. Prints a
-Markdown block for BENCHMARKS.md (progress goes to stderr).
+Run: ``.venv/bin/python bench/compare_checkouts.py [--ref 0c4d129] [--rounds N] [--sections
+sim,td,train]``. Prints a Markdown block for BENCHMARKS.md (progress goes to stderr).
 
 Why this exists: a redesign must not make the simulation core or the Tool Delivery environment
 slower, but a figure from last week's BENCHMARKS.md and one measured today are not comparable on
@@ -19,7 +19,9 @@ the noise is.
   the same temporary folder at the start, so every round measures the same code even while the
   tree is being edited.
 
-Each side runs its *own* ``bench/sim_bench.py`` and ``bench/td_bench.py`` with the same Python
+Each side runs its *own* ``bench/sim_bench.py`` and ``bench/td_bench.py`` (the ``train`` section:
+the new tree's ``bench/train_rate.py``, which drives only the ``python -m train`` command line
+that every version has) with the same Python
 (``sys.executable``), ``PYTHONPATH=<checkout>`` and the temporary folder as working directory,
 so ``import maopg`` resolves to that checkout and not to the editable install of the repository
 (the editable finder sits after ``PYTHONPATH`` on the import path, but this is checked rather
@@ -93,6 +95,7 @@ class Column:
 
 @dataclass(frozen=True)
 class Section:
+    name: str  # for --sections
     title: str
     script: str
     args: tuple[str, ...]
@@ -100,6 +103,9 @@ class Section:
     # Columns that describe the workload: they must read the same on both sides, or the
     # figures compare different work (e.g. the environment's episodes changed length).
     workload: tuple[Column, ...]
+    # Run the *new* tree's script against both checkouts: for a script that drives only what
+    # every version has (the command line), and which the old checkout may not contain.
+    script_from_new: bool = False
 
 
 def sections(td_episodes: int) -> tuple[Section, ...]:
@@ -107,6 +113,7 @@ def sections(td_episodes: int) -> tuple[Section, ...]:
     camera = ("scene", "setting")
     return (
         Section(
+            "sim",
             "Simulation core",
             "sim_bench.py",
             (),
@@ -121,6 +128,7 @@ def sections(td_episodes: int) -> tuple[Section, ...]:
             (Column("bodies/geoms/actuators", scene),),
         ),
         Section(
+            "td",
             "Tool Delivery throughput",
             "td_bench.py",
             ("--episodes", str(td_episodes), "--repeats", "1"),
@@ -129,6 +137,15 @@ def sections(td_episodes: int) -> tuple[Section, ...]:
                 Column("bare ticks/s", ("observations",), True),
             ),
             (Column("ticks", ("observations",)), Column("frames", ("observations",))),
+        ),
+        Section(
+            "train",
+            "Training loop, `async` from RGB, command-line defaults",
+            "train_rate.py",
+            (),
+            (Column("train samples/s", ("case",), True),),
+            (Column("iterations", ("case",)),),
+            script_from_new=True,
         ),
     )
 
@@ -248,9 +265,12 @@ def git(*args: str) -> str:
     ).stdout.strip()
 
 
-def run_section(checkout: Checkout, section: Section, others: list[Path], cwd: Path) -> str:
-    """Run the checkout's own script for ``section``; return its stdout, checked for imports."""
-    script = checkout.root / "bench" / section.script
+def run_section(
+    checkout: Checkout, section: Section, others: list[Path], cwd: Path, new: Checkout
+) -> str:
+    """Run the checkout's own script for ``section`` (or the new tree's, if the section says
+    so); return its stdout, checked for imports."""
+    script = (new if section.script_from_new else checkout).root / "bench" / section.script
     env = {**os.environ, "PYTHONPATH": str(checkout.root)}
     command = [sys.executable, "-c", RUNNER, str(checkout.root), str(script), *section.args]
     done = subprocess.run(command, cwd=cwd, env=env, capture_output=True, text=True, timeout=3600)
@@ -284,12 +304,21 @@ def main() -> int:
     parser.add_argument(
         "--td-episodes", type=int, default=20, help="td_bench episodes per run (one repeat)"
     )
+    parser.add_argument(
+        "--sections",
+        default="sim,td,train",
+        help="comma-separated, of sim (simulation core), td (Tool Delivery environment), "
+        "train (training loop, bench/train_rate.py); default: %(default)s",
+    )
     args = parser.parse_args()
     if args.rounds < 2:
         parser.error("--rounds must be at least 2: the verdicts compare the rounds' spread")
     started = time.perf_counter()
     conditions = markdown()  # before anything runs: its load average is the one at start
-    runs = sections(args.td_episodes)
+    wanted = args.sections.split(",")
+    runs = tuple(s for s in sections(args.td_episodes) if s.name in wanted)
+    if len(runs) != len(wanted):
+        parser.error(f"--sections: choose from {[s.name for s in sections(0)]}")
     # (section, row name, column header) -> figure, and (section, row, header) -> cells seen
     figures: dict[tuple[str, str, str], Figure] = {}
     workload: dict[tuple[str, str, str], dict[str, set[str]]] = {}
@@ -310,7 +339,7 @@ def main() -> int:
                     )
                     loads.append(os.getloadavg()[0])
                     # The repository itself is excluded too: that is the editable install.
-                    out = run_section(checkout, section, [other.root, REPO], cwd)
+                    out = run_section(checkout, section, [other.root, REPO], cwd, new)
                     for column in section.figures:
                         for row, cell in cells(out, column).items():
                             key = (section.title, row, column.header)

@@ -2,8 +2,9 @@
 
 A :class:`VectorEnv` backend only builds and steps environments; the backends differ in where
 the environments live (:class:`LocalVectorEnv`: this process; :class:`ThreadVectorEnv`: this
-process, on threads; :class:`ProcessVectorEnv`: ``spawn`` worker processes), chosen by name
-through :data:`BACKENDS`, so a distributed backend is one more implementation
+process, on threads; :class:`ProcessVectorEnv`: ``spawn`` worker processes;
+:class:`~maopg.env.ray_backend.RayVectorEnv`: Ray actors on any machine of a cluster), chosen
+by name through :data:`BACKENDS`, so another distributed backend is one more implementation
 (:func:`register_backend`). Everything that decides *what* is simulated
 stays in the main process, in :class:`SeededVectorEnv`, whatever the backend:
 
@@ -16,6 +17,8 @@ stays in the main process, in :class:`SeededVectorEnv`, whatever the backend:
   observations, condition and tick count) raises instead of silently diverging.
 
 So the learning curve is a function of the run seed alone, for any backend and worker count.
+The pieces every backend is built from (:class:`EnvConfig`, :class:`LocalVectorEnv`, the worker
+bootstrap) are in :mod:`maopg.env.vector_base`, which a backend module of its own imports.
 
 Rendering. A ``fork``ed child hangs if its parent already created a MuJoCo renderer
 (docs/DESIGN.md §2), so workers are ``spawn``ed and the main process never builds an environment
@@ -25,159 +28,44 @@ when workers are used: it asks worker 0 for the :class:`~maopg.env.contract.EnvS
 from __future__ import annotations
 
 import contextlib
-import copy
-import dataclasses
-import hashlib
 import multiprocessing as mp
-import pickle
 import traceback
-from abc import ABC, abstractmethod
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, field
 from multiprocessing.connection import Connection
-from typing import Any, Protocol
+from typing import Any
 
 import numpy as np
 import torch
 
 from maopg.env.contract import DecisionPoint, EnvSpec
-from maopg.env.option_env import OptionEnv
-from maopg.plugins import load_plugins
-from maopg.sim.robots import RobotSpec, get_robot, register_robot, robot_names
-from maopg.tasks.registry import register_task, task_entry, task_names
+from maopg.env.vector_base import (
+    EnvConfig,
+    LocalVectorEnv,
+    SplitVectorEnv,
+    StepResult,
+    VectorEnv,
+    digest,
+    episode_seed,
+    registrations,
+    worker_envs,
+)
+
+__all__ = [
+    "BACKENDS",
+    "EnvConfig",
+    "LocalVectorEnv",
+    "ProcessVectorEnv",
+    "SeededVectorEnv",
+    "StepResult",
+    "ThreadVectorEnv",
+    "VectorEnv",
+    "episode_seed",
+    "register_backend",
+]
 
 
-def episode_seed(run_seed: int, env_index: int, episode: int) -> int:
-    """The reset seed of episode ``episode`` of environment ``env_index`` in run ``run_seed``."""
-    return int(np.random.SeedSequence([run_seed, env_index, episode]).generate_state(1)[0])
-
-
-@dataclass(frozen=True)
-class EnvConfig:
-    """Everything needed to build one environment in any process (picklable)."""
-
-    task: str
-    strategy: str
-    images: bool = False
-    image_size: int = 64
-    gamma: float = 0.99
-    overrides: Mapping[str, Any] = field(default_factory=dict)
-
-    def make(self, seed: int) -> OptionEnv:
-        from maopg.env import make_env
-
-        return make_env(
-            self.task,
-            self.strategy,
-            seed=seed,
-            images=self.images,
-            image_size=self.image_size,
-            gamma=self.gamma,
-            overrides=dict(self.overrides) or None,
-        )
-
-
-@dataclass
-class StepResult:
-    """One environment's answer to a step: the point to act on next, and the episode's final
-    point when the step ended the episode (the environment has then already been reset)."""
-
-    point: DecisionPoint
-    final: DecisionPoint | None = None
-
-    @property
-    def outcome(self) -> DecisionPoint:
-        """The point that reports this step's reward, duration and termination."""
-        return self.final if self.final is not None else self.point
-
-
-class VectorEnv(Protocol):
-    """What a backend does for :class:`SeededVectorEnv`; every list is in environment order."""
-
-    num_envs: int
-
-    def spec(self) -> EnvSpec: ...
-
-    def reset(self, seeds: Sequence[int]) -> list[DecisionPoint]:
-        """Reset environment ``e`` with ``seeds[e]``."""
-        ...
-
-    def step(self, joints: np.ndarray, next_seeds: Sequence[int]) -> list[StepResult]:
-        """Apply ``joints[e]``; an episode that ends is reset at once with ``next_seeds[e]``."""
-        ...
-
-    def replay(
-        self, seeds: Sequence[int], actions: Sequence[Sequence[np.ndarray]]
-    ) -> list[DecisionPoint]:
-        """Reset environment ``e`` with ``seeds[e]`` and re-apply its joint options."""
-        ...
-
-    def close(self) -> None: ...
-
-
-class LocalVectorEnv:
-    """Environments in this process (also the body of each worker of the process backend)."""
-
-    def __init__(self, config: EnvConfig, env_indices: Sequence[int], run_seed: int) -> None:
-        self.envs = [config.make(episode_seed(run_seed, e, 0)) for e in env_indices]
-        self.num_envs = len(self.envs)
-
-    def spec(self) -> EnvSpec:
-        return self.envs[0].spec
-
-    def reset(self, seeds: Sequence[int]) -> list[DecisionPoint]:
-        return [copy.deepcopy(env.reset(seed=s)) for env, s in zip(self.envs, seeds, strict=True)]
-
-    def step(self, joints: np.ndarray, next_seeds: Sequence[int]) -> list[StepResult]:
-        results = []
-        for env, joint, seed in zip(self.envs, joints, next_seeds, strict=True):
-            point = copy.deepcopy(env.step(joint))
-            if point.done:
-                results.append(StepResult(copy.deepcopy(env.reset(seed=seed)), point))
-            else:
-                results.append(StepResult(point))
-        return results
-
-    def replay(
-        self, seeds: Sequence[int], actions: Sequence[Sequence[np.ndarray]]
-    ) -> list[DecisionPoint]:
-        points = []
-        for env, seed, joints in zip(self.envs, seeds, actions, strict=True):
-            point = env.reset(seed=seed)
-            for joint in joints:
-                point = env.step(joint)
-                if point.done:
-                    raise RuntimeError("replayed actions ended the episode: log is inconsistent")
-            points.append(copy.deepcopy(point))
-        return points
-
-    def close(self) -> None:
-        for env in self.envs:
-            env.close()
-
-
-class _SplitVectorEnv(ABC):
-    """A backend that serves every call by giving each of its groups of environments its slice
-    of the per-environment arguments (:meth:`_split`) and concatenating the answers."""
-
-    @abstractmethod
-    def _split(self, call: str, *per_env_args: Sequence[Any]) -> list[Any]:
-        """``LocalVectorEnv.<call>`` on every group with its slices, answers in env order."""
-
-    def reset(self, seeds: Sequence[int]) -> list[DecisionPoint]:
-        return self._split("reset", seeds)
-
-    def step(self, joints: np.ndarray, next_seeds: Sequence[int]) -> list[StepResult]:
-        return self._split("step", joints, next_seeds)
-
-    def replay(
-        self, seeds: Sequence[int], actions: Sequence[Sequence[np.ndarray]]
-    ) -> list[DecisionPoint]:
-        return self._split("replay", seeds, actions)
-
-
-class ThreadVectorEnv(_SplitVectorEnv):
+class ThreadVectorEnv(SplitVectorEnv):
     """Environments in this process, stepped in parallel on ``num_threads`` threads.
 
     ``mj_step`` releases the GIL, so physics of different environments overlaps while Python
@@ -229,49 +117,17 @@ _CALLS = ("spec", "reset", "step", "replay")
 """The :class:`LocalVectorEnv` methods a worker serves."""
 
 
-def _registrations(task: str) -> bytes:
-    """What a worker needs of the parent's registries, pickled: classes travel by module and
-    name, so the worker unpickles them only after importing its plugins (a plugin loaded from
-    a file is a module only once imported). An entry that does not pickle (a lambda) is left
-    out: the worker then relies on the plugins alone."""
-    entry = task_entry(task)
-    fields = {f.name: getattr(entry, f.name) for f in dataclasses.fields(entry)}
-    fields = {k: dict(v) if isinstance(v, Mapping) else v for k, v in fields.items()}
-    picklable = []
-    for item in (fields, *(get_robot(name) for name in robot_names())):
-        try:
-            picklable.append(pickle.dumps(item))
-        except (pickle.PicklingError, AttributeError, TypeError):
-            continue
-    return pickle.dumps(picklable)
-
-
-def _adopt(registrations: bytes) -> None:
-    """Register in this (spawned) process what the parent registered and this one lacks."""
-    for item in map(pickle.loads, pickle.loads(registrations)):
-        if isinstance(item, RobotSpec):
-            if item.name not in robot_names():
-                register_robot(item.name, item.mjcf, item.adapter, item.constants)
-        elif item["name"] not in task_names():
-            register_task(**item)
-
-
 def _worker(
     conn: Connection,
     config: EnvConfig,
     env_indices: list[int],
     run_seed: int,
-    registrations: bytes,
+    registered: bytes,
 ) -> None:
     """Worker process loop: build the environments, then serve ``(call, args)`` requests."""
-    import maopg  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
-
     envs = None
     try:
-        # The parent's plugins (inherited MAOPG_PLUGINS), then whatever else it registered.
-        load_plugins()
-        _adopt(registrations)
-        envs = LocalVectorEnv(config, env_indices, run_seed)
+        envs = worker_envs(config, env_indices, run_seed, registered)
         conn.send(("ok", None))
         while True:
             call, args = conn.recv()
@@ -290,7 +146,7 @@ def _worker(
         conn.close()
 
 
-class ProcessVectorEnv(_SplitVectorEnv):
+class ProcessVectorEnv(SplitVectorEnv):
     """Environments split over ``num_workers`` ``spawn``ed processes (at most one per env)."""
 
     def __init__(
@@ -302,12 +158,12 @@ class ProcessVectorEnv(_SplitVectorEnv):
         self.num_envs = num_envs
         groups = np.array_split(np.arange(num_envs), min(num_workers, num_envs))
         self.groups = [[int(e) for e in g] for g in groups]
-        registrations = _registrations(config.task)
+        registered = registrations(config.task)
         self.conns: list[Connection] = []
         self.procs = []
         for group in self.groups:
             parent, child = ctx.Pipe()
-            args = (child, config, group, run_seed, registrations)
+            args = (child, config, group, run_seed, registered)
             proc = ctx.Process(target=_worker, args=args, daemon=True)
             proc.start()
             child.close()
@@ -349,8 +205,10 @@ class ProcessVectorEnv(_SplitVectorEnv):
             conn.close()
 
 
-BackendFactory = Callable[[EnvConfig, int, int, int], VectorEnv]
-"""``factory(config, num_envs, run_seed, num_workers)`` → a :class:`VectorEnv`."""
+BackendFactory = Callable[[EnvConfig, int, int, int, Mapping[str, Any]], VectorEnv]
+"""``factory(config, num_envs, run_seed, num_workers, options)`` → a :class:`VectorEnv`;
+``options`` are the backend's own settings (``ray.address=...`` for ``ray``; empty for the
+others)."""
 
 BACKENDS: dict[str, BackendFactory] = {}
 """Backend name → factory: the values of the ``backend=`` config key."""
@@ -363,26 +221,27 @@ def register_backend(name: str, factory: BackendFactory, *, overwrite: bool = Fa
     BACKENDS[name] = factory
 
 
-register_backend("local", lambda config, n, seed, workers: LocalVectorEnv(config, range(n), seed))
+def _ray(
+    config: EnvConfig, n: int, seed: int, workers: int, options: Mapping[str, Any]
+) -> VectorEnv:
+    """The Ray backend, imported only when chosen: Ray is an optional extra."""
+    from maopg.env.ray_backend import RayOptions, RayVectorEnv
+
+    return RayVectorEnv(config, n, seed, num_actors=max(workers, 1), options=RayOptions(**options))
+
+
+register_backend("local", lambda config, n, seed, _w, _o: LocalVectorEnv(config, range(n), seed))
 register_backend(
     "threads",
-    lambda config, n, seed, workers: ThreadVectorEnv(config, n, seed, num_threads=max(workers, 2)),
+    lambda config, n, seed, workers, _o: ThreadVectorEnv(
+        config, n, seed, num_threads=max(workers, 2)
+    ),
 )
 register_backend(
     "processes",
-    lambda config, n, seed, workers: ProcessVectorEnv(config, n, seed, num_workers=workers),
+    lambda config, n, seed, workers, _o: ProcessVectorEnv(config, n, seed, num_workers=workers),
 )
-
-
-def _digest(point: DecisionPoint) -> str:
-    """Fingerprint of a decision point's observations and condition (to verify a replay)."""
-    digest = hashlib.sha256()
-    for array in (*point.vectors, point.choosing, point.running, *point.available):
-        digest.update(np.ascontiguousarray(array).tobytes())
-    if point.images is not None:
-        digest.update(np.ascontiguousarray(point.images).tobytes())
-    digest.update(str(point.ticks).encode())
-    return digest.hexdigest()
+register_backend("ray", _ray)
 
 
 class SeededVectorEnv:
@@ -400,6 +259,7 @@ class SeededVectorEnv:
         seed: int,
         backend: str = "local",
         num_workers: int = 0,
+        backend_options: Mapping[str, Any] | None = None,
     ) -> None:
         if num_envs < 1:
             raise ValueError(f"num_envs must be >= 1, got {num_envs}")
@@ -407,7 +267,9 @@ class SeededVectorEnv:
             raise ValueError(f"unknown backend {backend!r}; known: {sorted(BACKENDS)}")
         self.num_envs = num_envs
         self.seed = seed
-        self.backend: VectorEnv = BACKENDS[backend](config, num_envs, seed, num_workers)
+        self.backend: VectorEnv = BACKENDS[backend](
+            config, num_envs, seed, num_workers, dict(backend_options or {})
+        )
         self.spec: EnvSpec = self.backend.spec()
         self.episode = [0] * num_envs
         self.actions: list[list[np.ndarray]] = [[] for _ in range(num_envs)]
@@ -449,7 +311,7 @@ class SeededVectorEnv:
             "actions": [
                 torch.from_numpy(np.asarray(a, dtype=np.int64).reshape(-1, n)) for a in self.actions
             ],
-            "digest": [_digest(p) for p in self.points],
+            "digest": [digest(p) for p in self.points],
         }
 
     def load_state_dict(self, state: dict[str, Any]) -> None:
@@ -462,7 +324,7 @@ class SeededVectorEnv:
         self.actions = [list(a.numpy()) for a in state["actions"]]
         seeds = [episode_seed(self.seed, e, j) for e, j in enumerate(self.episode)]
         self.points = self.backend.replay(seeds, self.actions)
-        got = [_digest(p) for p in self.points]
+        got = [digest(p) for p in self.points]
         if got != list(state["digest"]):
             bad = [e for e, (a, b) in enumerate(zip(got, state["digest"], strict=True)) if a != b]
             raise RuntimeError(

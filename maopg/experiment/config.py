@@ -5,9 +5,10 @@ The run's fields (task, seed, budget, observations, environments, network size, 
 checkpoints) are top-level; the learner's hyper-parameters form the section its method names
 (``ppo`` for MAPPO, ``dqn`` for Mac-DQN, or a user learner's own). Command-line ``key=value``
 overrides address fields by name (``num_envs=8``), ``SECTION.NAME=VALUE`` the section
-(``ppo.epochs=5``, ``dqn.lr=1e-3``) and ``env.NAME=VALUE`` the task's settings
-(``env.max_ticks=100``). Fields left ``None`` take per-task defaults (declared by the task at
-registration) in :meth:`TrainConfig.resolved`.
+(``ppo.epochs=5``, ``dqn.lr=1e-3``), ``env.NAME=VALUE`` the task's settings
+(``env.max_ticks=100``) and ``ray.NAME=VALUE`` the Ray backend's (``ray.address=auto``). Fields
+left ``None`` take per-task defaults (declared by the task at registration) in
+:meth:`TrainConfig.resolved`.
 
 MAPPO's hyper-parameters used to be flat fields (``epochs=5``): the flat keys stay accepted for
 one release, with a deprecation message, and run directories written then load unchanged.
@@ -23,6 +24,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Union, get_args, get_origin, get_type_hints
 
+from maopg.env.ray_backend import INSTALL_HINT, RayOptions, ray_available
 from maopg.env.vector import BACKENDS, EnvConfig
 from maopg.experiment.methods import get_method, section_classes
 from maopg.learner.mappo import PPOConfig
@@ -53,10 +55,14 @@ class TrainConfig:
     backend: str | None = None
     """Where the environments run: ``local`` (this process, one after another), ``threads``
     (this process, stepped in parallel while ``mj_step`` and rendering release the GIL;
-    ``bench/backends.py`` measures the gain) or ``processes`` (``spawn`` workers); default
+    ``bench/backends.py`` measures the gain), ``processes`` (``spawn`` workers) or ``ray``
+    (Ray actors, on this machine or a cluster: the ``ray.*`` settings); default
     ``processes`` when ``num_workers`` > 1, else ``threads``. All give the same rollouts."""
     num_workers: int = 0
-    """Worker processes of the ``processes`` backend (threads of ``threads``: at least 2)."""
+    """Worker processes of the ``processes`` backend, actors of ``ray`` (0 = one), threads of
+    ``threads`` (at least 2)."""
+    ray: RayOptions = field(default_factory=RayOptions)
+    """Where the ``ray`` backend's actors run (``ray.address=auto``; :class:`RayOptions`)."""
     gamma: float = 0.99
     """Discount per tick (it also discounts the environment's rewards)."""
     hidden: int = 128
@@ -124,10 +130,19 @@ class TrainConfig:
             raise ValueError(f"backend must be one of {sorted(BACKENDS)}, got {cfg.backend!r}")
         if cfg.backend == "processes" and cfg.num_workers < 1:
             raise ValueError("backend=processes needs num_workers >= 1")
+        if cfg.num_workers < 0:
+            raise ValueError(f"num_workers must be >= 0, got {cfg.num_workers}")
+        if cfg.backend == "ray" and not ray_available():
+            raise ValueError(INSTALL_HINT)
+        cfg.ray.validate()
         if not 0.0 <= cfg.gamma <= 1.0:
             raise ValueError(f"gamma must lie in [0, 1], got {cfg.gamma}")
         cfg.learner.validate()
         return cfg
+
+    def backend_options(self) -> dict[str, Any]:
+        """The chosen backend's own settings (the ``ray`` section for ``backend=ray``)."""
+        return dataclasses.asdict(self.ray) if self.backend == "ray" else {}
 
     def env(self) -> EnvConfig:
         return EnvConfig(
@@ -148,14 +163,15 @@ class TrainConfig:
             section = get_method(self.method).config_class()
         values["env_overrides"] = dict(self.env_overrides)
         values["plugins"] = list(self.plugins)
+        values["ray"] = dataclasses.asdict(self.ray)
         values[self.section] = dataclasses.asdict(section)
         return values
 
     def flat(self) -> dict[str, Any]:
         """:meth:`to_dict` with section fields named as on the command line (``ppo.lr``)."""
         flat = self.to_dict()
-        section = flat.pop(self.section)
-        flat.update({f"{self.section}.{name}": v for name, v in section.items()})
+        for name in (self.section, "ray"):
+            flat.update({f"{name}.{key}": v for key, v in flat.pop(name).items()})
         return flat
 
     @staticmethod
@@ -178,7 +194,10 @@ class TrainConfig:
                 f"(its section is {own!r})"
             )
         section = values.pop(own, None)
+        ray = values.pop("ray", None)
         config = _build(TrainConfig, values, "")
+        if ray is not None:
+            config.ray = _build(RayOptions, ray, "ray.")
         if section is not None:
             config.learner = _build(method.config_class, section, f"{own}.")
         return config
@@ -196,7 +215,7 @@ class TrainConfig:
 
 
 def _build(cls: type, data: dict[str, Any], prefix: str) -> Any:
-    names = {f.name for f in dataclasses.fields(cls)} - {"learner"}
+    names = {f.name for f in dataclasses.fields(cls)} - {"learner", "ray"}
     unknown = sorted(set(data) - names)
     if unknown:
         raise ValueError(f"unknown config keys {[prefix + k for k in unknown]}")
@@ -284,6 +303,8 @@ def parse_overrides(items: list[str], method: str) -> dict[str, Any]:
             values[key] = _parse_field(TrainConfig, key, text, "")
         elif section == "env":
             values.setdefault("env_overrides", {}).update(parse_task_settings([f"{name}={text}"]))
+        elif section == "ray":
+            values.setdefault("ray", {})[name] = _parse_field(RayOptions, name, text, "ray.")
         elif section == own:
             values.setdefault(section, {})[name] = _parse_field(
                 sections[section], name, text, f"{section}."
@@ -293,7 +314,7 @@ def parse_overrides(items: list[str], method: str) -> dict[str, Any]:
                 f"{item!r}: method {method!r} reads the {own!r} section, not {section!r}"
             )
         else:
-            known = sorted({own, "env"})
+            known = sorted({own, "env", "ray"})
             raise ValueError(f"unknown config section {section!r} in {item!r}; known: {known}")
     return values
 
@@ -302,7 +323,7 @@ def _run_fields() -> list[str]:
     return sorted(
         f.name
         for f in dataclasses.fields(TrainConfig)
-        if f.name not in ("env_overrides", "learner")
+        if f.name not in ("env_overrides", "learner", "ray")
     )
 
 

@@ -12,6 +12,7 @@ for bit, whatever the backend.
 
 from __future__ import annotations
 
+import dataclasses
 import random
 import shutil
 import time
@@ -21,6 +22,7 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
+from maopg.env.ray_backend import RayOptions
 from maopg.env.vector import SeededVectorEnv
 from maopg.env.video import record_episode
 from maopg.experiment.config import TrainConfig
@@ -57,6 +59,7 @@ RESUMABLE_KEYS = (
     "num_workers",
     "run_dir",
     "plugins",
+    *(f"ray.{f.name}" for f in dataclasses.fields(RayOptions)),
 )
 """Config fields a resumed run may change: none of them changes what is computed."""
 
@@ -137,6 +140,7 @@ def train(config: TrainConfig, *, resume: bool = False, overwrite: bool = False)
         seed=config.seed,
         backend=config.backend,  # type: ignore[arg-type]
         num_workers=config.num_workers,
+        backend_options=config.backend_options(),
     )
     try:
         size = {"hidden": config.hidden, "layers": config.layers}

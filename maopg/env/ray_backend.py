@@ -1,0 +1,303 @@
+"""The ``ray`` backend: environments in Ray actors, on this machine or across a cluster.
+
+Ray is an optional extra (``pip install 'maopg[ray]'``); this module imports it only when a
+:class:`RayVectorEnv` is built. ``num_workers`` actors each hold a slice of the environments,
+built by the same bootstrap as a spawned worker's (:func:`~maopg.env.vector.worker_envs`: the
+run's plugins, then what the parent registered). Everything that decides what is simulated
+stays in the main process (:class:`~maopg.env.vector.SeededVectorEnv`), so a run's learning
+curve is the same as with ``backend=local`` for any number of actors, and the local backend's
+own random streams are untouched.
+
+**Where.** With ``ray.address`` unset the backend starts a local Ray instance itself (and stops
+it at the end); ``ray.address=auto`` joins the cluster this machine belongs to (``ray start
+--head`` on one machine, ``ray start --address=HEAD:6379`` on the others), any other value is
+given to ``ray.init(address=...)``. If the program has already called ``ray.init`` that
+instance is used as it is. Every machine needs the same maopg (and plugin files) installed.
+
+**A worker that dies** (a machine lost, an out-of-memory kill) is replaced: the backend keeps,
+per environment, the seed of its current episode and the joint options applied since its reset
+(the same log a checkpoint holds), so a new actor replays them — the simulation is
+deterministic given seed and options — checks that it arrived at the same decision points
+(fingerprints), and redoes the call that failed. No option step is lost or applied twice, so
+the curve is the uninterrupted one. A worker that keeps dying (more than
+``ray.max_replacements`` times in a run) ends the run with an error instead of looping.
+
+**Cost.** Each lockstep option step is one remote call per actor: the joint options go out, the
+next decision points (observations, images) come back through Ray's object store. Measured on
+one machine (BENCHMARKS.md, ``bench/backends.py``) that is about a millisecond per call plus
+the observations' transfer; across machines add one network round trip per option step. An
+actor stepping ``k`` environments spreads that over ``k`` environments' physics, so give each
+actor as many environments as it takes for physics to dominate the round trip (docs/DESIGN.md
+§9 works the numbers).
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import logging
+import math
+import os
+import socket
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from maopg.env.contract import EnvSpec
+from maopg.env.vector_base import (
+    EnvConfig,
+    SplitVectorEnv,
+    digest,
+    registrations,
+    worker_envs,
+)
+from maopg.plugins import env_plugins
+
+log = logging.getLogger(__name__)
+
+INSTALL_HINT = "backend=ray needs Ray: pip install 'maopg[ray]'"
+
+
+def ray_available() -> bool:
+    """Whether Ray can be imported (without importing it: that takes a while)."""
+    return importlib.util.find_spec("ray") is not None
+
+
+@dataclass(frozen=True)
+class RayOptions:
+    """The ``ray.*`` settings of a run: where the actors run, not what they compute (a resumed
+    run may change them)."""
+
+    address: str | None = None
+    """``None``: start a local Ray instance; ``auto``: join this machine's cluster; else the
+    address given to ``ray.init`` (``HOST:6379``, ``ray://HOST:10001``)."""
+    cpus_per_actor: float = 1.0
+    """Logical CPUs each actor reserves (Ray places actors by them)."""
+    max_replacements: int = 8
+    """Dead actors replaced in one run before giving up."""
+
+    def validate(self) -> None:
+        if not (math.isfinite(self.cpus_per_actor) and self.cpus_per_actor > 0):
+            raise ValueError(f"ray.cpus_per_actor must be > 0, got {self.cpus_per_actor}")
+        if self.max_replacements < 0:
+            raise ValueError(f"ray.max_replacements must be >= 0, got {self.max_replacements}")
+        if self.address not in (None, "auto"):
+            host, sep, port = self.address.removeprefix("ray://").rpartition(":")
+            if not (host and sep and port.isdigit()):
+                raise ValueError(
+                    f"ray.address={self.address!r}: expected HOST:PORT, ray://HOST:PORT or auto"
+                )
+
+
+class EnvActor:
+    """The body of one Ray actor: a slice of the environments (see the module docstring)."""
+
+    def __init__(
+        self,
+        config: EnvConfig,
+        env_indices: list[int],
+        run_seed: int,
+        registered: bytes,
+        plugins: list[str],
+    ) -> None:
+        self.envs = worker_envs(config, env_indices, run_seed, registered, plugins)
+
+    def call(self, name: str, *args: Any) -> Any:
+        """``LocalVectorEnv.<name>(*args)``, one answer per environment: called with
+        ``num_returns`` = the number of environments, so that each answer travels as an object
+        of its own — small enough to ride inline in the reply instead of through the object
+        store (Ray's ``max_direct_call_object_size``, 100 KiB), which halves the round trip of
+        an RGB step (docs/DESIGN.md §9). Ray takes a single return value as it is."""
+        answers = getattr(self.envs, name)(*args)
+        return answers[0] if len(answers) == 1 else tuple(answers)
+
+    def spec(self) -> EnvSpec:
+        return self.envs.spec()
+
+    def pid(self) -> int:
+        """The actor's process id (for tests that kill it)."""
+        return os.getpid()
+
+
+CONNECT_TIMEOUT_S = 10.0
+"""How long to wait for a cluster address to answer before calling it unreachable."""
+
+
+def _check_reachable(address: str) -> None:
+    """Fail fast on an address nothing listens at: ``ray.init`` itself retries for minutes."""
+    host, _, port = address.removeprefix("ray://").rpartition(":")
+    try:
+        socket.create_connection((host, int(port)), timeout=CONNECT_TIMEOUT_S).close()
+    except OSError as err:
+        raise ValueError(f"ray.address={address!r}: no Ray cluster answers there ({err})") from None
+
+
+def _connect(options: RayOptions, num_actors: int) -> bool:
+    """Make sure this process is connected to Ray; True if it started the instance itself."""
+    import ray
+
+    if ray.is_initialized():
+        return False
+    settings: dict[str, Any] = {"logging_level": logging.WARNING, "include_dashboard": False}
+    if options.address is None:
+        # A local instance: enough logical CPUs for every actor, even on a small machine.
+        wanted = math.ceil(num_actors * options.cpus_per_actor)
+        settings["num_cpus"] = max(os.cpu_count() or 1, wanted)
+    else:
+        if options.address != "auto":
+            _check_reachable(options.address)
+        settings["address"] = options.address
+    try:
+        ray.init(**settings)
+    except ConnectionError as err:
+        raise ValueError(
+            f"ray.address={options.address!r}: cannot join a Ray cluster: {err}"
+        ) from None
+    return True
+
+
+class RayVectorEnv(SplitVectorEnv):
+    """Environments split over ``num_actors`` Ray actors; dead actors are replaced and their
+    step redone (module docstring)."""
+
+    def __init__(
+        self,
+        config: EnvConfig,
+        num_envs: int,
+        run_seed: int,
+        *,
+        num_actors: int = 1,
+        options: RayOptions | None = None,
+    ) -> None:
+        if not ray_available():
+            raise ValueError(INSTALL_HINT)
+        import ray
+
+        self.options = options or RayOptions()
+        self.options.validate()
+        if num_actors < 1:
+            raise ValueError(f"num_workers (Ray actors) must be >= 1, got {num_actors}")
+        self.num_envs = num_envs
+        self.groups = [
+            [int(e) for e in g]
+            for g in np.array_split(np.arange(num_envs), min(num_actors, num_envs))
+        ]
+        self._owns_ray = _connect(self.options, len(self.groups))
+        self._remote = ray.remote(EnvActor).options(
+            num_cpus=self.options.cpus_per_actor, max_restarts=0
+        )
+        self._build_args = (config, run_seed, registrations(config.task), env_plugins())
+        self.actors = [self._spawn(group) for group in self.groups]
+        # What each environment's current episode is made of, to rebuild it on a new actor.
+        self.seeds: list[int | None] = [None] * num_envs
+        self.actions: list[list[np.ndarray]] = [[] for _ in range(num_envs)]
+        self.digests: list[str | None] = [None] * num_envs
+        self.replacements = 0
+
+    def _spawn(self, group: list[int]) -> Any:
+        config, run_seed, registered, plugins = self._build_args
+        return self._remote.remote(config, group, run_seed, registered, plugins)
+
+    # ------------------------------------------------------------------ calls
+    def _split(self, call: str, *per_env_args: Sequence[Any]) -> list[Any]:
+        sliced = [tuple([arg[e] for e in group] for arg in per_env_args) for group in self.groups]
+        futures = [self._submit(k, call, args) for k, args in enumerate(sliced)]
+        results: list[Any] = []
+        for k, future in enumerate(futures):
+            results.extend(self._result(k, future, lambda k=k: self._submit(k, call, sliced[k])))
+        self._record(call, per_env_args, results)
+        return results
+
+    def _submit(self, k: int, call: str, args: tuple) -> list[Any]:
+        """Ask actor ``k`` for ``call``: one object reference per environment of its group."""
+        n = len(self.groups[k])
+        refs = self.actors[k].call.options(num_returns=n).remote(call, *args)
+        return [refs] if n == 1 else list(refs)
+
+    def _result(self, k: int, future: Any, again: Callable[[], Any]) -> Any:
+        """Actor ``k``'s answer; if the actor died, replace it and ask ``again()``."""
+        import ray
+
+        while True:
+            try:
+                return ray.get(future)
+            except ray.exceptions.RayActorError as err:
+                self._replace(k, err)
+                future = again()
+            except ray.exceptions.RayTaskError as err:
+                raise RuntimeError(f"environment actor {k} failed:\n{err}") from None
+
+    def _record(self, call: str, per_env_args: Sequence[Sequence[Any]], results: list) -> None:
+        """Keep each environment's episode log in step with what the actors just did."""
+        if call == "step":
+            joints, next_seeds = per_env_args
+            for e, result in enumerate(results):
+                if result.final is not None:
+                    self.seeds[e], self.actions[e] = int(next_seeds[e]), []
+                else:
+                    self.actions[e].append(np.array(joints[e], dtype=np.int64))
+            points = [r.point for r in results]
+        elif call in ("reset", "replay"):
+            self.seeds = [int(s) for s in per_env_args[0]]
+            self.actions = (
+                [[] for _ in range(self.num_envs)]
+                if call == "reset"
+                else [[np.array(j, dtype=np.int64) for j in a] for a in per_env_args[1]]
+            )
+            points = results
+        else:
+            return
+        self.digests = [digest(p) for p in points]
+
+    def _replace(self, k: int, err: Exception) -> None:
+        """A new actor for group ``k``, brought to where the dead one was."""
+        import ray
+
+        group = self.groups[k]
+        while True:
+            if self.replacements >= self.options.max_replacements:
+                raise RuntimeError(
+                    f"Ray actor {k} (environments {group}) died again after "
+                    f"{self.replacements} replacements (ray.max_replacements): {err}"
+                )
+            self.replacements += 1
+            reason = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
+            log.warning("Ray actor %d (environments %s) died; replacing it: %s", k, group, reason)
+            ray.kill(self.actors[k], no_restart=True)
+            self.actors[k] = self._spawn(group)
+            if self.seeds[group[0]] is None:
+                return  # not reset yet: nothing to rebuild
+            seeds = [self.seeds[e] for e in group]
+            actions = [self.actions[e] for e in group]
+            try:
+                points = ray.get(self._submit(k, "replay", (seeds, actions)))
+            except ray.exceptions.RayActorError as again:
+                err = again
+                continue
+            if [digest(p) for p in points] != [self.digests[e] for e in group]:
+                raise RuntimeError(
+                    f"the replacement of Ray actor {k} did not reproduce the decision points "
+                    f"of environments {group}: the environment is not deterministic given its "
+                    "seed and options"
+                )
+            return
+
+    def spec(self) -> EnvSpec:
+        return self._result(0, self.actors[0].spec.remote(), lambda: self.actors[0].spec.remote())
+
+    def pids(self) -> list[int]:
+        """The actors' process ids (a test kills one to check the replacement)."""
+        import ray
+
+        return ray.get([a.pid.remote() for a in self.actors])
+
+    def close(self) -> None:
+        import ray
+
+        if not ray.is_initialized():
+            return
+        for actor in self.actors:
+            ray.kill(actor, no_restart=True)
+        if self._owns_ray:
+            ray.shutdown()

@@ -1,0 +1,187 @@
+"""The ``ray`` backend on a real local Ray instance with 2 CPUs: the same rollouts and learning
+curves as ``backend=local`` for any number of actors, a killed actor replaced with no option
+step lost or applied twice, resume, and its settings' errors.
+
+Ray is the optional extra ``maopg[ray]``, which the test command installs; without it these
+tests are skipped.
+"""
+
+from __future__ import annotations
+
+import csv
+import logging
+import os
+import signal
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from maopg.env.rollout import RandomPolicy
+from maopg.env.vector import EnvConfig, SeededVectorEnv, digest
+from maopg.experiment.run_dir import TIMING_COLUMNS
+from maopg.experiment.train_cli import main
+
+ray = pytest.importorskip("ray")
+
+CONFIG = EnvConfig(task="tool_delivery", strategy="continue", images=True)
+RUN = ["--seed", "1", "batch_ticks=100", "num_envs=3", "ppo.epochs=2", "progress=false"]
+RUN += ["video=false", "checkpoint_every=2"]
+
+
+@pytest.fixture(scope="module", autouse=True)
+def local_ray():
+    """One local Ray instance (2 CPUs) for the module; the backend uses it as it finds it."""
+    ray.init(num_cpus=2, include_dashboard=False, logging_level=logging.WARNING)
+    yield
+    ray.shutdown()
+
+
+def _trace(envs: SeededVectorEnv, steps: int, kill_at: int | None = None) -> list[list[str]]:
+    """Fingerprints of every outcome of ``steps`` random lockstep option steps; with
+    ``kill_at``, the last actor's process is killed (SIGKILL) before that step."""
+    envs.reset()
+    policy, trace = RandomPolicy(envs.spec, 0), []
+    for step in range(steps):
+        if step == kill_at:
+            os.kill(envs.backend.pids()[-1], signal.SIGKILL)
+        results = envs.step(np.stack([policy(p) for p in envs.points]))
+        trace.append([digest(r.outcome) for r in results])
+    return trace
+
+
+def _envs(backend: str, workers: int = 0) -> SeededVectorEnv:
+    return SeededVectorEnv(CONFIG, num_envs=3, seed=5, backend=backend, num_workers=workers)
+
+
+def _rows(run_dir: Path) -> list[dict[str, str]]:
+    with (run_dir / "metrics.csv").open() as handle:
+        return [
+            {k: v for k, v in r.items() if k not in TIMING_COLUMNS} for r in csv.DictReader(handle)
+        ]
+
+
+@pytest.fixture(scope="module")
+def local_trace() -> list[list[str]]:
+    envs = _envs("local")
+    try:
+        return _trace(envs, 40)
+    finally:
+        envs.close()
+
+
+@pytest.mark.parametrize("actors", [1, 2])
+def test_ray_rollouts_equal_local_ones(local_trace, actors):
+    envs = _envs("ray", actors)
+    try:
+        assert len(envs.backend.actors) == actors
+        assert _trace(envs, 40) == local_trace
+    finally:
+        envs.close()
+
+
+def test_a_killed_actor_is_replaced_and_its_step_redone(local_trace, caplog):
+    envs = _envs("ray", 2)
+    try:
+        before = envs.backend.pids()
+        with caplog.at_level(logging.WARNING, logger="maopg.env.ray_backend"):
+            assert _trace(envs, 40, kill_at=17) == local_trace
+        assert envs.backend.replacements == 1
+        assert envs.backend.pids()[0] == before[0] and envs.backend.pids()[1] != before[1]
+        assert "Ray actor 1 (environments [2]) died; replacing it" in caplog.text
+    finally:
+        envs.close()
+
+
+def test_checkpoint_replay_through_ray_actors(local_trace):
+    source = _envs("local")
+    twin = _envs("ray", 2)
+    try:
+        _trace(source, 12)
+        twin.load_state_dict(source.state_dict())
+        assert [digest(p) for p in twin.points] == [digest(p) for p in source.points]
+    finally:
+        source.close()
+        twin.close()
+
+
+def _kill_an_actor_once_training_runs(run_dir: Path, killed: list[int]) -> threading.Thread:
+    """A thread that waits for the run's first logged iteration, then kills one Ray actor
+    process (found by the process title Ray gives it), as a lost machine would."""
+
+    def kill() -> None:
+        deadline = time.monotonic() + 120
+        metrics = run_dir / "metrics.csv"
+        while time.monotonic() < deadline:
+            if metrics.exists() and len(metrics.read_text().splitlines()) >= 2:
+                break
+            time.sleep(0.01)
+        for pid in sorted(int(p) for p in os.listdir("/proc") if p.isdigit()):
+            try:
+                title = Path(f"/proc/{pid}/cmdline").read_bytes()
+            except OSError:
+                continue
+            if title.startswith(b"ray::EnvActor"):
+                os.kill(pid, signal.SIGKILL)
+                killed.append(pid)
+                return
+
+    thread = threading.Thread(target=kill, daemon=True)
+    thread.start()
+    return thread
+
+
+def test_training_curve_survives_a_killed_actor_and_resumes(tmp_path, caplog):
+    """Mid-run, a Ray actor is killed: the curve is the uninterrupted local one; a resumed
+    run (more samples, from the checkpoint, on Ray) continues it exactly."""
+    main([*RUN, "--total-samples", "1200", "--run-dir", str(tmp_path / "local"), "backend=local"])
+
+    run = tmp_path / "ray"
+    killed: list[int] = []
+    killer = _kill_an_actor_once_training_runs(run, killed)
+    with caplog.at_level(logging.WARNING, logger="maopg.env.ray_backend"):
+        args = [*RUN, "--total-samples", "800", "--run-dir", str(run)]
+        assert main([*args, "backend=ray", "num_workers=2"]) == 0
+    killer.join(timeout=5)
+    assert killed, "no Ray actor was found to kill"
+    assert "died; replacing it" in caplog.text, "the actor was killed after training ended"
+
+    main(["--resume", "--run-dir", str(run), "--total-samples", "1200", "progress=false"])
+    assert _rows(run) == _rows(tmp_path / "local")
+
+
+def _status(argv: list[str]) -> int:
+    """``main``'s exit status, whether it returns it or argparse exits with it."""
+    try:
+        return main(argv)
+    except SystemExit as exit:
+        return int(exit.code or 0)
+
+
+@pytest.mark.parametrize(
+    ("setting", "message"),
+    [
+        ("ray.cpus_per_actor=0", r"ray\.cpus_per_actor must be > 0"),
+        ("ray.max_replacements=-1", r"ray\.max_replacements must be >= 0"),
+        ("ray.adress=auto", r"unknown config key 'ray\.adress'"),
+        ("ray.address=nowhere", r"ray\.address='nowhere': expected HOST:PORT"),
+        ("ray.address=127.0.0.1:1", r"ray\.address='127\.0\.0\.1:1': no Ray cluster answers"),
+    ],
+)
+def test_bad_ray_settings_are_one_line_errors(tmp_path, user_error, setting, message):
+    ray.shutdown()  # an address is only read where this process is not connected yet
+    try:
+        run = tmp_path / "run"
+        args = [*RUN, "--total-samples", "100", "--run-dir", str(run), "backend=ray", setting]
+        user_error(_status, args, message)
+    finally:
+        if not ray.is_initialized():
+            ray.init(num_cpus=2, include_dashboard=False, logging_level=logging.WARNING)
+
+
+def test_backend_ray_without_ray_installed_says_how_to_get_it(tmp_path, user_error, monkeypatch):
+    monkeypatch.setattr("maopg.experiment.config.ray_available", lambda: False)
+    args = [*RUN, "--total-samples", "100", "--run-dir", str(tmp_path / "run"), "backend=ray"]
+    user_error(main, args, r"backend=ray needs Ray: pip install 'maopg\[ray\]'")
