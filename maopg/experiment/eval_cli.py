@@ -193,7 +193,7 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from maopg.experiment.methods import method_names
+    from maopg.experiment.methods import grid_method_names, method_names
     from maopg.tasks import task_entry, task_names
 
     parser = argparse.ArgumentParser(prog=PROG, description=__doc__.split("\n")[0])
@@ -243,7 +243,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--runs", type=Path, default=Path("results/runs"))
     p.add_argument("--results", type=Path, default=Path("results"))
     p.add_argument("--tasks", nargs="+", default=task_names(), choices=task_names())
-    p.add_argument("--methods", nargs="+", default=method_names(), choices=method_names())
+    p.add_argument("--methods", nargs="+", default=grid_method_names(), choices=method_names())
     p.add_argument(
         "--seeds",
         nargs="+",

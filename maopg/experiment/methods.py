@@ -21,7 +21,7 @@ from maopg.env.contract import EnvSpec, Strategy
 from maopg.experiment.run_dir import TIMING_COLUMNS
 from maopg.learner import SHARED_COLUMNS, Learner, MacDQNLearner, MAPPOLearner
 from maopg.learner.macdqn import joint_q_network
-from maopg.learner.mappo import centralized_policy, partial_policy
+from maopg.learner.mappo import autoregressive_policy, centralized_policy, partial_policy
 
 PolicyBuilder = Callable[..., nn.Module]
 """``builder(spec, *, hidden, layers, config) -> network``: the acting network of a method from
@@ -36,6 +36,9 @@ class Method:
     strategy: Strategy | str
     learner: type[Learner]
     policy: PolicyBuilder
+    in_grid: bool = True
+    """Part of the reproduction grid by default (``python -m eval reproduce``): the paper's
+    methods are; a method added since is run by naming it (``--methods``)."""
 
     @property
     def section(self) -> str:
@@ -86,6 +89,11 @@ def method_names() -> list[str]:
     return list(_METHODS)
 
 
+def grid_method_names() -> list[str]:
+    """The methods the reproduction grid runs by default (:attr:`Method.in_grid`)."""
+    return [name for name, method in _METHODS.items() if method.in_grid]
+
+
 def section_classes() -> dict[str, type]:
     """Every registered learner's config section: name → dataclass."""
     return {m.section: m.config_class for m in _METHODS.values()}
@@ -98,3 +106,7 @@ register_method(Method("sync-wait", "all", MAPPOLearner, centralized_policy))
 register_method(Method("end2end", "primitive", MAPPOLearner, centralized_policy))
 register_method(Method("mac-dqn", "continue", MacDQNLearner, joint_q_network))
 register_method(Method("partial", "continue", MAPPOLearner, partial_policy))
+# The conditional factored by the chain rule over the choosing agents, for teams whose joint
+# option set is too large for the product categorical (maopg.policy.autoregressive). A sync
+# variant is one line more: Method("sync-cut-ar", "any", MAPPOLearner, autoregressive_policy).
+register_method(Method("async-ar", "continue", MAPPOLearner, autoregressive_policy, in_grid=False))

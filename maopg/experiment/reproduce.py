@@ -10,7 +10,8 @@ Each cell is one training run in ``<runs>/<task>/<method>/seed<seed>``:
 
 The grid's default seeds and a few cells' settings of their own (the Water Filling Mac-DQN
 replay size) are declared by each task at registration (``grid_seeds``, ``grid_overrides``), so
-the one command reproduces exactly the committed grid; the methods are the registry's.
+the one command reproduces exactly the committed grid; the methods are the registry's (those
+it marks ``in_grid``).
 
 Runs are launched one after another as train command-line subprocesses (a crash or an
 out-of-memory kill loses one run, not the grid) or, with ``in_process=True``, by calling the
@@ -39,7 +40,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from maopg.experiment.evaluate import evaluate, results_table
-from maopg.experiment.methods import method_names
+from maopg.experiment.methods import grid_method_names, method_names
 from maopg.experiment.plots import curve_table, plot_task
 from maopg.experiment.run_dir import CONFIG, DONE, FINAL
 from maopg.experiment.runs import RunData, discover_runs
@@ -128,11 +129,12 @@ def run_grid(
 ) -> dict[Cell, str]:
     """Bring every cell of the grid to ``finished``; returns each cell's outcome:
     ``skipped`` (already finished), ``done``, ``failed: ...`` or, with ``dry_run``, ``would
-    start`` / ``would resume``. ``tasks`` and ``methods`` default to every registered one,
+    start`` / ``would resume``. ``tasks`` default to every registered one, ``methods`` to the grid's
+    (:func:`~maopg.experiment.methods.grid_method_names`),
     ``seeds`` replaces every task's declared grid seeds. Raises ``ValueError`` for a task or
     method that is not registered."""
     tasks = list(tasks) if tasks is not None else task_names()
-    methods = list(methods) if methods is not None else method_names()
+    methods = list(methods) if methods is not None else grid_method_names()
     for kind, given, known in (
         ("task", tasks, task_names()),
         ("method", methods, method_names()),

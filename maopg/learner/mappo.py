@@ -28,6 +28,7 @@ from maopg.learner.buffer import Rollout, TrainBatch
 from maopg.learner.gae import DiscountForm
 from maopg.learner.value_norm import ValueNorm
 from maopg.policy import (
+    AutoregressivePolicy,
     CentralCritic,
     CentralizedPolicy,
     DistributionActor,
@@ -194,6 +195,14 @@ def centralized_policy(
 ) -> CentralizedPolicy:
     """The paper's conditional centralized policy (the method registry's policy builder)."""
     return CentralizedPolicy(spec, hidden=hidden, layers=layers)
+
+
+def autoregressive_policy(
+    spec: EnvSpec, *, hidden: int, layers: int, config: PPOConfig
+) -> AutoregressivePolicy:
+    """The same conditional, factored by the chain rule: one small factor per choosing agent
+    (linear in the team size, where the product categorical grows as ``ΠK_i``)."""
+    return AutoregressivePolicy(spec, hidden=hidden, layers=layers)
 
 
 def partial_policy(

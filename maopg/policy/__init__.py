@@ -1,6 +1,7 @@
 """Option policies, the centralized critic, Mac-DQN's joint Q-network, and their actors."""
 
 from maopg.policy.actors import DistributionActor, QActor
+from maopg.policy.autoregressive import AutoregressiveConditional, AutoregressivePolicy
 from maopg.policy.batch import ObsBatch, stack_conditions, vector_slices
 from maopg.policy.conditional import (
     ConditionalJoint,
@@ -24,6 +25,8 @@ from maopg.policy.networks import (
 )
 
 __all__ = [
+    "AutoregressiveConditional",
+    "AutoregressivePolicy",
     "CentralCritic",
     "CentralizedPolicy",
     "ConditionalJoint",
