@@ -7,11 +7,15 @@ Everything random flows from ``config.seed``: network initialisation (torch's gl
 acting (``sample_gen``), minibatches / replay sampling (``update_gen``) and the environments'
 episode seeds (:func:`maopg.env.vector.episode_seed`). The checkpoint stores the generators'
 states and each environment's (episode, options since reset), so a resumed run continues bit
-for bit, whatever the backend.
+for bit, whatever the backend. All of it is CPU state whatever ``config.device``: networks are
+initialised on the CPU and moved, and the generators are CPU generators that draw on the CPU
+(:class:`maopg.learner.LearnerSetup`), so ``device=cpu`` computes exactly what the code did
+before it had a device, and a ``cuda`` run differs from it only by the GPU's rounding.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import random
 import shutil
 import time
@@ -57,8 +61,12 @@ RESUMABLE_KEYS = (
     "num_workers",
     "run_dir",
     "plugins",
+    "device",
 )
-"""Config fields a resumed run may change: none of them changes what is computed."""
+"""Config fields a resumed run may change: none of them changes what is computed. ``device``
+changes only how it is rounded: a run moved from ``cpu`` to ``cuda`` (or back) continues the
+same updates on the same state (checkpoints hold CPU tensors, :mod:`maopg.learner.checkpoint`),
+but its curve from there on is not bit-identical to an unmoved run's."""
 
 
 def _seed_everything(seed: int) -> tuple[torch.Generator, torch.Generator]:
@@ -78,7 +86,10 @@ def _prepare_run_dir(config: TrainConfig, resume: bool, overwrite: bool) -> Trai
     run_dir = Path(config.run_dir)  # type: ignore[arg-type]
     saved = run_dir / CONFIG
     if resume and saved.exists():
-        before, now = TrainConfig.load(saved).resolved().flat(), config.flat()
+        # Resolved on this machine's device: the saved one may be a GPU this machine lacks, and
+        # the device is resumable anyway.
+        before = dataclasses.replace(TrainConfig.load(saved), device=config.device).resolved()
+        before, now = before.flat(), config.flat()
         clashes = {
             key: (before.get(key), now.get(key))
             for key in sorted(set(before) | set(now))
@@ -150,6 +161,7 @@ def train(config: TrainConfig, *, resume: bool = False, overwrite: bool = False)
             **size,
             sample_gen=sample_gen,
             update_gen=update_gen,
+            device=torch.device(config.device),
         )
         learner = method.learner(policy, setup)
         iteration, samples, wall_time = 0, 0, 0.0

@@ -168,6 +168,22 @@ def partial_conditional_log_probs(
     return result
 
 
+def draw_multinomial(weights: Tensor, generator: torch.Generator | None = None) -> Tensor:
+    """One index per row of ``weights`` ``[B, K]`` (``torch.multinomial``), ``[B]`` on the
+    weights' device, drawn on the *generator's* device.
+
+    A CPU generator cannot drive a draw on CUDA tensors, and the learners' generators are CPU
+    generators (checkpointed, seeded from the run's seed): so the weights come to the
+    generator, not the other way round. On a CPU run both moves are no-ops and the draws are
+    exactly those of ``torch.multinomial(weights, 1, generator=generator)``; on CUDA the
+    weights cross to the host once per decision, which acting pays anyway (the joint option
+    goes to the environments as numpy).
+    """
+    device = weights.device if generator is None else generator.device
+    picks = torch.multinomial(weights.to(device), 1, generator=generator).squeeze(-1)
+    return picks.to(weights.device)
+
+
 def _categorical_entropy(log_probs: Tensor) -> Tensor:
     """Entropy over the last dim, with ``0·log 0 = 0`` in forward and backward."""
     finite = torch.isfinite(log_probs)
@@ -191,8 +207,7 @@ class ConditionalJoint:
         return self.log_probs.exp()
 
     def sample(self, generator: torch.Generator | None = None) -> Tensor:
-        flat = torch.multinomial(self.probs, 1, generator=generator).squeeze(-1)
-        return unravel_joint(flat, self.option_counts)
+        return unravel_joint(draw_multinomial(self.probs, generator), self.option_counts)
 
     def log_prob(self, joint: Tensor) -> Tensor:
         """``log π̂`` of ``int64 [B, N]`` joint options; non-choosing entries are ignored."""
@@ -221,10 +236,7 @@ class FactoredConditional:
         self.running = running
 
     def sample(self, generator: torch.Generator | None = None) -> Tensor:
-        picks = [
-            torch.multinomial(lp.exp(), 1, generator=generator).squeeze(-1)
-            for lp in self.agent_log_probs
-        ]
+        picks = [draw_multinomial(lp.exp(), generator) for lp in self.agent_log_probs]
         return torch.where(self.choosing, torch.stack(picks, dim=-1), self.running)
 
     def log_prob(self, joint: Tensor) -> Tensor:
@@ -281,11 +293,13 @@ def epsilon_greedy(
     )
     choosing = choosing.bool()
     masks = torch.split(available.bool(), list(option_counts), dim=-1)
-    explore = torch.rand(choosing.shape, generator=generator) < epsilon
+    # Drawn on the generator's device, like draw_multinomial (a no-op move on the CPU).
+    uniform = torch.rand(choosing.shape, generator=generator, device=generator.device)
+    explore = uniform.to(choosing.device) < epsilon
     for i, mask in enumerate(masks):
         # Rows whose agent i is not choosing may have an all-false mask: give multinomial
         # something valid there; the pick is discarded by the where below.
         weights = torch.where(choosing[:, i : i + 1], mask, True).float()
-        random = torch.multinomial(weights, 1, generator=generator).squeeze(-1)
+        random = draw_multinomial(weights, generator)
         joint[:, i] = torch.where(explore[:, i] & choosing[:, i], random, joint[:, i])
     return torch.where(choosing, joint, running)
