@@ -81,6 +81,10 @@ class TrainConfig:
     video: bool = True
     """Record a rollout of the trained policy (seed 0) to ``rollout.mp4`` at the end
     (~45 s on Water Filling; ``video=false`` skips it, as the reproduction grid does)."""
+    plot: bool = True
+    """Draw ``learning_curve.png`` at the end (~0.5-1 s, mostly importing matplotlib; ``false``
+    skips it, as the tests' short runs do: ``python -m eval plot`` draws any run's curves later
+    from its ``metrics.csv``)."""
     video_sample: bool = True
     """Sample the video's options from the policy, as in training (Mac-DQN: ε-greedy at its
     final ε); ``false`` takes the greedy option. The greedy policy can loop where the stochastic

@@ -57,6 +57,7 @@ RESUMABLE_KEYS = (
     "progress",
     "video",
     "video_sample",
+    "plot",
     "backend",
     "num_workers",
     "run_dir",
@@ -130,9 +131,10 @@ def train(config: TrainConfig, *, resume: bool = False, overwrite: bool = False)
         if done["samples"] >= config.total_samples:
             return run_dir  # finished: --resume has nothing to do (even with no checkpoint)
         # A larger budget: unfinished again until it is reached. The old weights go with the
-        # marker, so a killed extension cannot pass its old policy off as the final one.
+        # marker, so a killed extension cannot pass its old policy off as the final one (nor an
+        # old curve: with plot=false none is drawn at the end).
         (run_dir / DONE).unlink()
-        for stale in (FINAL, VIDEO):
+        for stale in (FINAL, VIDEO, CURVE):
             (run_dir / stale).unlink(missing_ok=True)
     checkpoint_path = run_dir / CHECKPOINT
     resume = resume and checkpoint_path.exists()
@@ -239,15 +241,17 @@ def train(config: TrainConfig, *, resume: bool = False, overwrite: bool = False)
 
 
 def after_training(run_dir: Path) -> None:
-    """Artifacts of a finished run: the learning-curve plot and, with ``video``, a rollout of the
-    trained policy (seed 0; sampled, or greedy with ``video_sample=false``) as ``rollout.mp4``.
+    """Artifacts of a finished run: with ``plot``, the learning-curve plot and, with ``video``, a
+    rollout of the trained policy (seed 0; sampled, or greedy with ``video_sample=false``) as
+    ``rollout.mp4``.
 
     The policy is loaded back from ``final.pt`` the way ``python -m eval video`` loads it, so
     the video shows what the saved checkpoint does.
     """
     config = TrainConfig.load(run_dir / CONFIG)
-    title = f"{config.task} · {config.method} · seed {config.seed}"
-    plot_learning_curve(run_dir / METRICS, run_dir / CURVE, title)
+    if config.plot:
+        title = f"{config.task} · {config.method} · seed {config.seed}"
+        plot_learning_curve(run_dir / METRICS, run_dir / CURVE, title)
     if config.video:
         trained = load_trained(run_dir / FINAL)
         env = trained.make_env(0)

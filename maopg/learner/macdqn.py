@@ -39,6 +39,7 @@ from torch import Tensor, nn
 
 from maopg.env.contract import EnvSpec
 from maopg.env.vector import SeededVectorEnv
+from maopg.learner.adam import Adam
 from maopg.learner.base import (
     Actor,
     Learner,
@@ -177,7 +178,7 @@ class MacDQN:
         self.target.requires_grad_(False)
         self.device = next(q.parameters()).device
         """Where the networks are: sampled batches come from the (CPU, numpy) replay to here."""
-        self.optimizer = torch.optim.Adam(self.q.parameters(), lr=config.lr)
+        self.optimizer = Adam(self.q.parameters(), lr=config.lr)
 
     def sync_target(self) -> None:
         self.target.load_state_dict(self.q.state_dict())

@@ -23,6 +23,7 @@ from torch import Tensor, nn
 
 from maopg.env.contract import EnvSpec
 from maopg.env.vector import SeededVectorEnv
+from maopg.learner.adam import Adam
 from maopg.learner.base import Actor, Learner, LearnerSetup, episode_metrics
 from maopg.learner.buffer import Rollout, TrainBatch
 from maopg.learner.gae import DiscountForm
@@ -98,10 +99,8 @@ class MAPPO:
         self.critic = critic
         self.value_norm = value_norm
         self.config = config
-        self.policy_opt = torch.optim.Adam(policy.parameters(), lr=config.lr, eps=config.adam_eps)
-        self.critic_opt = torch.optim.Adam(
-            critic.parameters(), lr=config.critic_lr, eps=config.adam_eps
-        )
+        self.policy_opt = Adam(policy.parameters(), lr=config.lr, eps=config.adam_eps)
+        self.critic_opt = Adam(critic.parameters(), lr=config.critic_lr, eps=config.adam_eps)
 
     def value_targets(self, returns: Tensor) -> Tensor:
         """Returns in the critic's space (normalised when value normalisation is on)."""

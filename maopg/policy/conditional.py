@@ -113,15 +113,28 @@ def joint_slice_mask(
     return _outer_and(agent_masks(choosing, running, available, option_counts))
 
 
+def _strides(option_counts: Sequence[int], device: torch.device) -> Tensor:
+    """``int64 [N]``: how far one step of agent i's option moves in the row-major joint."""
+    strides = [math.prod(option_counts[i + 1 :]) for i in range(len(option_counts))]
+    return torch.tensor(strides, device=device)
+
+
 def ravel_joint(joint: Tensor, option_counts: Sequence[int]) -> Tensor:
     """``int64 [B, N]`` joint options to flat indices ``[B]`` into the row-major joint."""
-    strides = [math.prod(option_counts[i + 1 :]) for i in range(len(option_counts))]
-    return (joint * torch.tensor(strides, device=joint.device)).sum(dim=-1)
+    return (joint * _strides(option_counts, joint.device)).sum(dim=-1)
 
 
 def unravel_joint(flat: Tensor, option_counts: Sequence[int]) -> Tensor:
-    """Flat indices ``[B]`` back to ``int64 [B, N]`` joint options."""
-    return torch.stack(torch.unravel_index(flat, tuple(option_counts)), dim=-1)
+    """Flat indices ``[B]`` back to ``int64 [B, N]`` joint options.
+
+    The integer arithmetic of ``torch.unravel_index``, written out: its argument checks
+    (``torch._check_type``) import ``torch.fx``'s symbolic shapes and sympy at the first call,
+    ~0.3 s of every training process's start-up for the first option drawn.
+    """
+    counts = torch.tensor(tuple(option_counts), device=flat.device)
+    return (
+        flat.unsqueeze(-1).div(_strides(option_counts, flat.device), rounding_mode="floor") % counts
+    )
 
 
 def conditional_log_probs(
