@@ -132,6 +132,12 @@ def main() -> int:
     print(conditions)
     print(f"- load average (1 min) before each run: {min(loads):.2f}–{max(loads):.2f}")
     print(f"- load average (1 min) at end: {os.getloadavg()[0]:.2f}")
+    if min(loads) >= 1.0:
+        print(
+            "- other processes were running throughout (load average never below 1 on "
+            f"{os.cpu_count()} CPUs): the wall-clock figures are inflated and noisy, the CPU "
+            "times much less so"
+        )
     print(f"- old: {old.description}; maopg imported from `{old.maopg_file}`")
     print(f"- new: {new.description}; maopg imported from `{new.maopg_file}`")
     print(f"- training command: `python -m train {' '.join(TRAIN)} --run-dir DIR --overwrite`")
