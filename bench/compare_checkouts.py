@@ -271,19 +271,26 @@ def run_section(
     """Run the checkout's own script for ``section`` (or the new tree's, if the section says
     so); return its stdout, checked for imports."""
     script = (new if section.script_from_new else checkout).root / "bench" / section.script
+    return run_script(checkout, script, section.args, others, cwd)
+
+
+def run_script(
+    checkout: Checkout, script: Path, args: tuple[str, ...], others: list[Path], cwd: Path
+) -> str:
+    """Run ``script args`` with ``maopg`` imported from ``checkout`` (checked: no module from
+    ``others``); return its stdout. ``bench/startup.py`` times these runs."""
     env = {**os.environ, "PYTHONPATH": str(checkout.root)}
-    command = [sys.executable, "-c", RUNNER, str(checkout.root), str(script), *section.args]
+    command = [sys.executable, "-c", RUNNER, str(checkout.root), str(script), *args]
     done = subprocess.run(command, cwd=cwd, env=env, capture_output=True, text=True, timeout=3600)
     if done.returncode != 0:
         raise RuntimeError(
-            f"{checkout.side} {section.script} failed (exit {done.returncode}):\n"
-            f"{done.stderr[-3000:]}"
+            f"{checkout.side} {script.name} failed (exit {done.returncode}):\n{done.stderr[-3000:]}"
         )
     marks = [line for line in done.stdout.splitlines() if line.startswith(MARK)]
     _, maopg_file, *strays = marks[-1].split("\t")
     if strays or any(Path(maopg_file).is_relative_to(other) for other in others):
         raise RuntimeError(
-            f"{checkout.side} {section.script} imported maopg from outside {checkout.root}: "
+            f"{checkout.side} {script.name} imported maopg from outside {checkout.root}: "
             f"maopg at {maopg_file}, strays {strays}"
         )
     if not checkout.maopg_file:

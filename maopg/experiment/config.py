@@ -24,6 +24,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Union, get_args, get_origin, get_type_hints
 
+import torch
+
 from maopg.env.ray_backend import INSTALL_HINT, RayOptions, ray_available
 from maopg.env.vector import BACKENDS, EnvConfig
 from maopg.experiment.methods import get_method, section_classes
@@ -71,6 +73,13 @@ class TrainConfig:
     """Depth of the encoders' MLPs."""
     checkpoint_every: int = 10
     """Iterations between checkpoints (one is also written at the end)."""
+    device: str = "auto"
+    """Where the networks, their optimisers and the updates run: ``cpu``, ``cuda`` or ``auto``
+    (``cuda`` where ``torch.cuda.is_available()``, else ``cpu``); :meth:`resolved` replaces
+    ``auto`` by the device it picked, so ``config.json`` records where the run computed. The
+    environments always step (and render) on the CPU side. Bit-exact learning curves are
+    promised on ``cpu`` only: CUDA kernels round differently (and not always deterministically),
+    so a ``cuda`` run is reproducible in distribution, not bit for bit."""
     torch_threads: int = 1
     """``torch.set_num_threads`` (0 = torch's default). One thread is fastest for the small
     state-vector networks and avoids oversubscribing the cores the environments use."""
@@ -78,6 +87,10 @@ class TrainConfig:
     video: bool = True
     """Record a rollout of the trained policy (seed 0) to ``rollout.mp4`` at the end
     (~45 s on Water Filling; ``video=false`` skips it, as the reproduction grid does)."""
+    plot: bool = True
+    """Draw ``learning_curve.png`` at the end (~0.5-1 s, mostly importing matplotlib; ``false``
+    skips it, as the tests' short runs do: ``python -m eval plot`` draws any run's curves later
+    from its ``metrics.csv``)."""
     video_sample: bool = True
     """Sample the video's options from the policy, as in training (Mac-DQN: ε-greedy at its
     final ε); ``false`` takes the greedy option. The greedy policy can loop where the stochastic
@@ -123,6 +136,7 @@ class TrainConfig:
             cfg.backend = "processes" if cfg.num_workers > 1 else "threads"
         if cfg.run_dir is None:
             cfg.run_dir = str(Path("runs") / cfg.task / cfg.method / f"seed{cfg.seed}")
+        cfg.device = resolve_device(cfg.device)
         for key in ("total_samples", "batch_ticks", "num_envs", "checkpoint_every", "hidden"):
             if getattr(cfg, key) < 1:
                 raise ValueError(f"{key} must be >= 1, got {getattr(cfg, key)}")
@@ -212,6 +226,25 @@ class TrainConfig:
         except json.JSONDecodeError as err:
             raise ValueError(f"{path} is not valid JSON: {err}") from None
         return TrainConfig.from_dict(data)
+
+
+DEVICES = ("auto", "cpu", "cuda")
+"""The values of the ``device`` setting."""
+
+
+def resolve_device(device: str) -> str:
+    """``auto`` → ``cuda`` if torch sees a GPU, else ``cpu``; ``cpu`` and ``cuda`` as given, but
+    ``cuda`` without a GPU is a ``ValueError``, as is anything else (naming the setting)."""
+    if device not in DEVICES:
+        raise ValueError(f"device must be one of {list(DEVICES)}, got {device!r}")
+    if device == "auto":
+        return "cuda" if torch.cuda.is_available() else "cpu"
+    if device == "cuda" and not torch.cuda.is_available():
+        raise ValueError(
+            "device=cuda, but torch.cuda.is_available() is false on this machine "
+            f"(torch {torch.__version__}); use device=cpu or device=auto"
+        )
+    return device
 
 
 def _build(cls: type, data: dict[str, Any], prefix: str) -> Any:

@@ -28,6 +28,8 @@ PROG = "python -m eval"
 
 
 def _policy_args(parser: argparse.ArgumentParser) -> None:
+    from maopg.experiment.config import DEVICES
+
     source = parser.add_mutually_exclusive_group(required=True)
     source.add_argument("--checkpoint", type=Path, help="checkpoint file or run directory")
     source.add_argument("--reference", choices=REFERENCE_POLICIES, help="reference policy")
@@ -46,6 +48,13 @@ def _policy_args(parser: argparse.ArgumentParser) -> None:
         action="store_true",
         help="sample options instead of the greedy mode (Mac-DQN: ε-greedy at its final ε)",
     )
+    parser.add_argument(
+        "--device",
+        choices=DEVICES,
+        default="cpu",
+        help="where a checkpoint's policy runs (default cpu: it acts on one point at a time, "
+        "and evaluations on the CPU are bit-reproducible)",
+    )
 
 
 def _policy_and_env(args: argparse.Namespace):
@@ -63,7 +72,7 @@ def _policy_and_env(args: argparse.Namespace):
                 f"{', '.join(given)}: a checkpoint brings its own task and strategy "
                 "(they apply to --reference policies only)"
             )
-        trained = load_trained(args.checkpoint)
+        trained = load_trained(args.checkpoint, device=args.device)
         env = trained.make_env(args.seed)
         policy = trained.actor(greedy=not args.sample, seed=args.seed)
         c = trained.config

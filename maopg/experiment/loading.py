@@ -8,6 +8,7 @@ acts — so nothing needs to be given twice, and a user's method loads like a bu
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -55,12 +56,21 @@ def resolve_checkpoint(path: str | Path) -> Path:
     raise FileNotFoundError(f"{path} is neither a checkpoint file nor a run directory with one")
 
 
-def load_trained(path: str | Path) -> Trained:
-    """Rebuild the policy of a checkpoint (file or run directory) with its weights."""
+def load_trained(path: str | Path, device: str = "cpu") -> Trained:
+    """Rebuild the policy of a checkpoint (file or run directory) with its weights, on
+    ``device`` (``cpu``, ``cuda`` or ``auto``, as the training setting).
+
+    The default is ``cpu`` whatever the run trained on: a trained policy acts on one decision
+    point at a time, where a GPU only adds a transfer per step, and on the CPU an evaluation is
+    bit-reproducible. The checkpoint's tensors are CPU tensors (:mod:`maopg.learner.checkpoint`),
+    so a policy trained on a GPU loads on a machine without one. ``config.device`` of the
+    result is the device it was loaded on.
+    """
     file = resolve_checkpoint(path)
     state = load_checkpoint(file, required=("config",))
     load_plugins(state["config"].get("plugins", []))  # the run's task or method may be theirs
-    config = TrainConfig.from_dict(state["config"]).resolved()
+    saved = TrainConfig.from_dict(state["config"])
+    config = dataclasses.replace(saved, device=device).resolved()
     method = get_method(config.method)
     env = config.env().make(0)
     try:
@@ -74,4 +84,5 @@ def load_trained(path: str | Path) -> Trained:
     if key not in state:
         raise CheckpointError(f"checkpoint {file} lacks the entries [{key!r}]")
     policy.load_state_dict(state[key])
+    policy.to(config.device)
     return Trained(file, config, method, policy, int(state.get("samples", 0)))

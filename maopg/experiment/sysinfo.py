@@ -1,7 +1,11 @@
-"""The conditions a measurement was taken under: machine, library versions, GL renderer.
+"""The conditions a measurement was taken under: machine, library versions, the torch device,
+the GL vendor and renderer.
 
-Benchmarks print these beside their figures and training runs store them in their config, so a
-number is never separated from what produced it.
+Benchmarks print these beside their figures, so a number is never separated from what produced
+it (a training run records its resolved ``device`` in its ``config.json``). Two devices matter
+and they are chosen apart: torch's (``device=auto`` takes CUDA where torch sees it) and
+MuJoCo's, which renders through EGL on the GPU when the driver offers one (software Mesa
+otherwise; ``MUJOCO_EGL_DEVICE_ID`` picks among several).
 """
 
 from __future__ import annotations
@@ -22,6 +26,19 @@ def cpu_name() -> str:
     return platform.processor() or "unknown"
 
 
+def torch_device() -> str:
+    """What ``device=auto`` resolves to on this machine, with the GPU's name."""
+    import torch
+
+    if not torch.cuda.is_available():
+        return f"cpu (device=auto; torch {torch.__version__} sees no CUDA device)"
+    index = torch.cuda.current_device()
+    return (
+        f"cuda:{index} {torch.cuda.get_device_name(index)} (device=auto; "
+        f"{torch.cuda.device_count()} visible, CUDA {torch.version.cuda})"
+    )
+
+
 def conditions(gl: bool = True) -> dict[str, str]:
     """Machine and versions; ``gl=True`` also renders one frame to name the GL renderer."""
     import mujoco
@@ -34,14 +51,18 @@ def conditions(gl: bool = True) -> dict[str, str]:
         "mujoco": mujoco.__version__,
         "torch": torch.__version__,
         "torch_threads": str(torch.get_num_threads()),
+        "torch device": torch_device(),
         "numpy": np.__version__,
         # Other processes share the cores: timings taken under load read slower.
         "load average (1 min) at start": f"{os.getloadavg()[0]:.2f}",
     }
     if gl:
-        from maopg.sim.egl_check import check
+        from maopg.sim.egl_check import gl_strings
 
-        info["gl"] = f"MUJOCO_GL={os.environ.get('MUJOCO_GL')}, {check()}"
+        vendor, renderer = gl_strings()
+        chosen = os.environ.get("MUJOCO_EGL_DEVICE_ID")
+        where = "" if chosen is None else f", MUJOCO_EGL_DEVICE_ID={chosen}"
+        info["gl"] = f"MUJOCO_GL={os.environ.get('MUJOCO_GL')}{where}, {vendor}: {renderer}"
     return info
 
 

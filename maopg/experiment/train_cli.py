@@ -34,8 +34,9 @@ def build_parser() -> argparse.ArgumentParser:
         prog=PROG,
         description="Train an option-based multi-agent policy (MAPPO, or the Mac-DQN baseline).",
         epilog="Extra arguments key=value override any config field (e.g. num_envs=8, "
-        "num_workers=2, video=false), SECTION.key=value a hyper-parameter of the method's "
-        "learner (ppo.epochs=5, dqn.lr=1e-3) and env.key=value a task setting.",
+        "num_workers=2, video=false, plot=false, device=cuda), SECTION.key=value a "
+        "hyper-parameter of the method's learner (ppo.epochs=5, dqn.lr=1e-3) and env.key=value "
+        "a task setting.",
     )
     parser.add_argument("--task", choices=task_names(), default=None)
     parser.add_argument("--method", choices=sorted(method_names()), default=None)

@@ -7,7 +7,10 @@ Everything random flows from ``config.seed``: network initialisation (torch's gl
 acting (``sample_gen``), minibatches / replay sampling (``update_gen``) and the environments'
 episode seeds (:func:`maopg.env.vector.episode_seed`). The checkpoint stores the generators'
 states and each environment's (episode, options since reset), so a resumed run continues bit
-for bit, whatever the backend.
+for bit, whatever the backend. All of it is CPU state whatever ``config.device``: networks are
+initialised on the CPU and moved, and the generators are CPU generators that draw on the CPU
+(:class:`maopg.learner.LearnerSetup`), so ``device=cpu`` computes exactly what the code did
+before it had a device, and a ``cuda`` run differs from it only by the GPU's rounding.
 """
 
 from __future__ import annotations
@@ -55,13 +58,18 @@ RESUMABLE_KEYS = (
     "progress",
     "video",
     "video_sample",
+    "plot",
     "backend",
     "num_workers",
     "run_dir",
     "plugins",
     *(f"ray.{f.name}" for f in dataclasses.fields(RayOptions)),
+    "device",
 )
-"""Config fields a resumed run may change: none of them changes what is computed."""
+"""Config fields a resumed run may change: none of them changes what is computed. ``device``
+changes only how it is rounded: a run moved from ``cpu`` to ``cuda`` (or back) continues the
+same updates on the same state (checkpoints hold CPU tensors, :mod:`maopg.learner.checkpoint`),
+but its curve from there on is not bit-identical to an unmoved run's."""
 
 
 def _seed_everything(seed: int) -> tuple[torch.Generator, torch.Generator]:
@@ -81,7 +89,10 @@ def _prepare_run_dir(config: TrainConfig, resume: bool, overwrite: bool) -> Trai
     run_dir = Path(config.run_dir)  # type: ignore[arg-type]
     saved = run_dir / CONFIG
     if resume and saved.exists():
-        before, now = TrainConfig.load(saved).resolved().flat(), config.flat()
+        # Resolved on this machine's device: the saved one may be a GPU this machine lacks, and
+        # the device is resumable anyway.
+        before = dataclasses.replace(TrainConfig.load(saved), device=config.device).resolved()
+        before, now = before.flat(), config.flat()
         clashes = {
             key: (before.get(key), now.get(key))
             for key in sorted(set(before) | set(now))
@@ -122,9 +133,10 @@ def train(config: TrainConfig, *, resume: bool = False, overwrite: bool = False)
         if done["samples"] >= config.total_samples:
             return run_dir  # finished: --resume has nothing to do (even with no checkpoint)
         # A larger budget: unfinished again until it is reached. The old weights go with the
-        # marker, so a killed extension cannot pass its old policy off as the final one.
+        # marker, so a killed extension cannot pass its old policy off as the final one (nor an
+        # old curve: with plot=false none is drawn at the end).
         (run_dir / DONE).unlink()
-        for stale in (FINAL, VIDEO):
+        for stale in (FINAL, VIDEO, CURVE):
             (run_dir / stale).unlink(missing_ok=True)
     checkpoint_path = run_dir / CHECKPOINT
     resume = resume and checkpoint_path.exists()
@@ -154,6 +166,7 @@ def train(config: TrainConfig, *, resume: bool = False, overwrite: bool = False)
             **size,
             sample_gen=sample_gen,
             update_gen=update_gen,
+            device=torch.device(config.device),
         )
         learner = method.learner(policy, setup)
         iteration, samples, wall_time = 0, 0, 0.0
@@ -231,15 +244,17 @@ def train(config: TrainConfig, *, resume: bool = False, overwrite: bool = False)
 
 
 def after_training(run_dir: Path) -> None:
-    """Artifacts of a finished run: the learning-curve plot and, with ``video``, a rollout of the
-    trained policy (seed 0; sampled, or greedy with ``video_sample=false``) as ``rollout.mp4``.
+    """Artifacts of a finished run: with ``plot``, the learning-curve plot and, with ``video``, a
+    rollout of the trained policy (seed 0; sampled, or greedy with ``video_sample=false``) as
+    ``rollout.mp4``.
 
     The policy is loaded back from ``final.pt`` the way ``python -m eval video`` loads it, so
     the video shows what the saved checkpoint does.
     """
     config = TrainConfig.load(run_dir / CONFIG)
-    title = f"{config.task} · {config.method} · seed {config.seed}"
-    plot_learning_curve(run_dir / METRICS, run_dir / CURVE, title)
+    if config.plot:
+        title = f"{config.task} · {config.method} · seed {config.seed}"
+        plot_learning_curve(run_dir / METRICS, run_dir / CURVE, title)
     if config.video:
         trained = load_trained(run_dir / FINAL)
         env = trained.make_env(0)

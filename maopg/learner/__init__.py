@@ -2,6 +2,7 @@
 normalisation, the PPO update) and the Mac-DQN baseline (squeezed replay, conditional
 double-Q), each with its own collection loop behind :class:`Learner`, and atomic checkpoints."""
 
+from maopg.learner.adam import Adam
 from maopg.learner.base import SHARED_COLUMNS, Actor, Learner, LearnerSetup
 from maopg.learner.buffer import Rollout, TrainBatch
 from maopg.learner.checkpoint import (
@@ -21,6 +22,7 @@ __all__ = [
     "MAPPO",
     "SHARED_COLUMNS",
     "Actor",
+    "Adam",
     "CheckpointError",
     "DiscountForm",
     "Learner",

@@ -23,6 +23,8 @@ from torch import nn
 from maopg.env.contract import DecisionPoint, EnvSpec
 from maopg.env.vector import SeededVectorEnv
 
+CPU = torch.device("cpu")
+
 SHARED_COLUMNS = (
     "iteration",
     "samples",
@@ -60,6 +62,12 @@ class LearnerSetup:
     """Draws every acting decision (checkpointed by the trainer)."""
     update_gen: torch.Generator
     """Draws minibatches and replay samples (checkpointed by the trainer)."""
+    device: torch.device = CPU
+    """Where the learner's networks, optimiser state and updates live (the run's resolved
+    ``device``). The generators stay CPU generators whatever it is: every random draw is made
+    on the CPU from them and its result moved to the device, so a ``cpu`` run draws exactly as
+    it always has and a ``cuda`` run's draws are as reproducible as its probabilities
+    (:func:`maopg.policy.conditional.draw_multinomial`)."""
 
 
 class Learner(ABC):
@@ -76,8 +84,11 @@ class Learner(ABC):
     """The ``final.pt`` entry holding the acting network's weights."""
 
     def __init__(self, policy: nn.Module, setup: LearnerSetup) -> None:
-        self.policy = policy
+        # Built on the CPU from torch's global RNG (the same initial weights on every device),
+        # then moved: a subclass builds its optimisers after this, on the moved parameters.
+        self.policy = policy.to(setup.device)
         self.setup = setup
+        self.device = setup.device
         self.config = setup.config
 
     @abstractmethod

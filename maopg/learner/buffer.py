@@ -13,6 +13,7 @@ consumes (advantages by :func:`~maopg.learner.gae.compute_gae`).
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -50,6 +51,17 @@ class TrainBatch:
     def __len__(self) -> int:
         return self.old_log_prob.shape[0]
 
+    def to(self, device: torch.device | str) -> TrainBatch:
+        """The batch on ``device`` (the bank and ``image_index`` of banked images included)."""
+        return TrainBatch(
+            obs=self.obs.to(device),
+            **{
+                f.name: getattr(self, f.name).to(device)
+                for f in dataclasses.fields(self)
+                if f.name != "obs"
+            },
+        )
+
     def rows(self, index: Tensor) -> TrainBatch:
         """The minibatch ``index`` (a 1-D index tensor)."""
         return TrainBatch(
@@ -74,6 +86,15 @@ class Rollout:
     only the cameras of its choosing agents (every camera on the first row) and points the
     others at the image they saw when they last chose. The training batch is banked
     (:class:`~maopg.policy.ObsBatch`), and the encoders run the CNN once per image.
+
+    The grid lives on the CPU whatever the learner's device: it is filled one row per option
+    step from numpy observations the (CPU) simulation produced, and GAE runs over it in numpy,
+    so on a GPU every row would otherwise cross twice (there and back for GAE). Instead the
+    whole training batch crosses once per iteration (:meth:`TrainBatch.to`), and the ``epochs
+    x num_minibatches`` passes of the update index it on the device. The size of that copy:
+    Tool Delivery's batch of ~200 ticks is a few hundred rows of ~100 floats (kilobytes);
+    Water Filling's with cameras is dominated by the bank of distinct 64x64x3 ``uint8`` images
+    (a few thousand: ~10-40 MB, milliseconds over PCIe, kept as bytes until the encoder).
     """
 
     num_envs: int

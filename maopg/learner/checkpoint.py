@@ -8,10 +8,15 @@ old checkpoint or the new one, never half of one.
 Loading uses ``torch.load(weights_only=True)``: a checkpoint holds only tensors and plain Python
 containers, so opening a file from elsewhere cannot execute code. Anything that is not a tensor
 (RNG states, counters, config) is stored as ints, floats, strings, lists and dicts.
+
+Every tensor is written from the CPU (:func:`on_cpu`) and read onto it (``map_location``), so a
+checkpoint is the same file whichever device trained it: one written on a GPU opens on a machine
+without one, and the learner moves what it loads onto its own device.
 """
 
 from __future__ import annotations
 
+import copy
 import os
 import pickle
 import random
@@ -28,8 +33,34 @@ class CheckpointError(RuntimeError):
     """A checkpoint file is missing, truncated, corrupt, or not one of ours."""
 
 
+def on_cpu(value: Any) -> Any:
+    """``value`` with every tensor in it (through dicts, lists and tuples) moved to the CPU.
+
+    A container holding nothing to move is returned as it is, so a CPU run saves exactly the
+    objects it always did; a changed one is a shallow copy of its own type (a module's
+    ``state_dict`` keeps its ``_metadata``).
+    """
+    if isinstance(value, torch.Tensor):
+        return value.cpu()
+    if isinstance(value, dict):
+        moved = {key: on_cpu(item) for key, item in value.items()}
+        if all(moved[key] is item for key, item in value.items()):
+            return value
+        result = copy.copy(value)
+        result.update(moved)
+        return result
+    if isinstance(value, list | tuple):
+        items = [on_cpu(item) for item in value]
+        if all(new is old for new, old in zip(items, value, strict=True)):
+            return value
+        return type(value)(items)
+    return value
+
+
 def save_checkpoint(path: str | os.PathLike[str], state: dict[str, Any]) -> Path:
-    """Write ``state`` to ``path`` atomically (temporary file + ``os.replace``)."""
+    """Write ``state`` to ``path`` atomically (temporary file + ``os.replace``), its tensors
+    on the CPU (:func:`on_cpu`)."""
+    state = on_cpu(state)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)

@@ -39,6 +39,7 @@ from torch import Tensor, nn
 
 from maopg.env.contract import EnvSpec
 from maopg.env.vector import SeededVectorEnv
+from maopg.learner.adam import Adam
 from maopg.learner.base import (
     Actor,
     Learner,
@@ -175,7 +176,9 @@ class MacDQN:
         self.q = q
         self.target = copy.deepcopy(q)
         self.target.requires_grad_(False)
-        self.optimizer = torch.optim.Adam(self.q.parameters(), lr=config.lr)
+        self.device = next(q.parameters()).device
+        """Where the networks are: sampled batches come from the (CPU, numpy) replay to here."""
+        self.optimizer = Adam(self.q.parameters(), lr=config.lr)
 
     def sync_target(self) -> None:
         self.target.load_state_dict(self.q.state_dict())
@@ -185,10 +188,10 @@ class MacDQN:
         cfg = self.config
         if self.q.recurrent:
             q_taken, target = self._sequence_values(
-                replay.sample_episodes(cfg.batch_episodes, generator)
+                self._to_device(replay.sample_episodes(cfg.batch_episodes, generator))
             )
         else:
-            batch = replay.sample(cfg.batch_size, generator)
+            batch = self._to_device(replay.sample(cfg.batch_size, generator))
             q_taken = self._taken(self.q(_obs(batch)), batch["joint"])
             with torch.no_grad():
                 target = self._target(
@@ -200,6 +203,9 @@ class MacDQN:
         nn.utils.clip_grad_norm_(self.q.parameters(), cfg.max_grad_norm)
         self.optimizer.step()
         return {"loss": float(loss.detach()), "q_mean": float(q_taken.detach().mean())}
+
+    def _to_device(self, batch: dict[str, Tensor]) -> dict[str, Tensor]:
+        return {key: value.to(self.device) for key, value in batch.items()}
 
     def _taken(self, q: Tensor, joint: Tensor) -> Tensor:
         flat = ravel_joint(joint, self.option_counts)
@@ -293,16 +299,16 @@ class MacDQNLearner(Learner):
             points = envs.points
             with torch.no_grad():
                 q, self.gru_state = self.policy.step(
-                    ObsBatch.from_decision_points(points), self.gru_state
+                    ObsBatch.from_decision_points(points).to(self.device), self.gru_state
                 )
                 joint = epsilon_greedy(
                     q,
-                    *stack_conditions(points),
+                    *(t.to(self.device) for t in stack_conditions(points)),
                     self.policy.option_counts,
                     dqn.epsilon(samples + ticks),
                     self.setup.sample_gen,
                 )
-            joints = joint.numpy()
+            joints = joint.cpu().numpy()
             results = envs.step(joints)
             for e, result in enumerate(results):
                 outcome = result.outcome
@@ -361,7 +367,7 @@ class MacDQNLearner(Learner):
         self.replay.load_state_dict(state["replay"])
         self.counters.update(state["counters"])
         if self.gru_state is not None:
-            self.gru_state = state["gru_state"]
+            self.gru_state = state["gru_state"].to(self.device)
 
     @staticmethod
     def actor(policy: JointQNetwork, config: MacDQNConfig, *, greedy: bool, seed: int) -> Actor:

@@ -23,6 +23,7 @@ from torch import Tensor, nn
 
 from maopg.env.contract import EnvSpec
 from maopg.env.vector import SeededVectorEnv
+from maopg.learner.adam import Adam
 from maopg.learner.base import Actor, Learner, LearnerSetup, episode_metrics
 from maopg.learner.buffer import Rollout, TrainBatch
 from maopg.learner.gae import DiscountForm
@@ -99,10 +100,8 @@ class MAPPO:
         self.critic = critic
         self.value_norm = value_norm
         self.config = config
-        self.policy_opt = torch.optim.Adam(policy.parameters(), lr=config.lr, eps=config.adam_eps)
-        self.critic_opt = torch.optim.Adam(
-            critic.parameters(), lr=config.critic_lr, eps=config.adam_eps
-        )
+        self.policy_opt = Adam(policy.parameters(), lr=config.lr, eps=config.adam_eps)
+        self.critic_opt = Adam(critic.parameters(), lr=config.critic_lr, eps=config.adam_eps)
 
     def value_targets(self, returns: Tensor) -> Tensor:
         """Returns in the critic's space (normalised when value normalisation is on)."""
@@ -159,7 +158,8 @@ class MAPPO:
         size = len(batch)
         num_minibatches = max(1, min(cfg.num_minibatches, size))
         for _ in range(cfg.epochs):
-            order = torch.randperm(size, generator=generator)
+            # The generator is a CPU one (LearnerSetup.device): draw there, index on the device.
+            order = torch.randperm(size, generator=generator).to(advantages.device)
             for index in order.tensor_split(num_minibatches):
                 losses = self.losses(batch.rows(index), advantages[index], targets[index])
                 self.policy_opt.zero_grad()
@@ -233,8 +233,9 @@ class MAPPOLearner(Learner):
 
     def __init__(self, policy: OptionPolicy, setup: LearnerSetup) -> None:
         super().__init__(policy, setup)
-        self.critic = CentralCritic(setup.spec, hidden=setup.hidden, layers=setup.layers)
-        self.value_norm = ValueNorm() if self.config.value_norm else None
+        critic = CentralCritic(setup.spec, hidden=setup.hidden, layers=setup.layers)
+        self.critic = critic.to(self.device)
+        self.value_norm = ValueNorm().to(self.device) if self.config.value_norm else None
         self.ppo = MAPPO(policy, self.critic, self.value_norm, self.config)
 
     def iteration(self, envs: SeededVectorEnv, samples: int) -> tuple[dict[str, Any], int]:
@@ -243,7 +244,7 @@ class MAPPOLearner(Learner):
         advantages, returns, values = rollout.advantages(
             self.value_norm, gamma=self.setup.gamma, lam=cfg.gae_lambda, form=cfg.discount
         )
-        batch = rollout.training_batch(advantages, returns)
+        batch = rollout.training_batch(advantages, returns).to(self.device)
         stats = self.ppo.update(batch, self.setup.update_gen)
         variance = float(np.var(returns))
         explained = (
@@ -265,26 +266,33 @@ class MAPPOLearner(Learner):
         The last row may overshoot ``batch_ticks`` by less than one option step per
         environment; :attr:`Rollout.ticks` is the exact count. Values are stored in the
         critic's own (normalised) space; a truncated episode bootstraps from its final point.
+        The networks run on the learner's device; the rollout is kept on the CPU (see
+        :class:`~maopg.learner.buffer.Rollout` for why).
         """
-        policy, critic = self.policy, self.critic
+        policy, critic, device = self.policy, self.critic, self.device
         rollout = Rollout(num_envs=envs.num_envs)
         obs = ObsBatch.from_decision_points(envs.points)
-        values = critic(obs)
+        on_device = obs.to(device)
+        values = critic(on_device).cpu()
         ticks = 0
         while ticks < self.setup.batch_ticks:
             choosing, running, available = stack_conditions(envs.points)
-            dist = policy.distribution(obs, choosing, running, available)
+            dist = policy.distribution(
+                on_device, choosing.to(device), running.to(device), available.to(device)
+            )
             joint = dist.sample(self.setup.sample_gen)
-            log_prob = dist.log_prob(joint)
+            log_prob = dist.log_prob(joint).cpu()
+            joint = joint.cpu()
             results = envs.step(joint.numpy())
             outcomes = [r.outcome for r in results]
             next_obs = ObsBatch.from_decision_points(envs.points)
-            next_values = critic(next_obs)
+            next_on_device = next_obs.to(device)
+            next_values = critic(next_on_device).cpu()
             bootstrap = next_values.clone()
             truncated = [e for e, o in enumerate(outcomes) if o.truncated]
             if truncated:
                 finals = ObsBatch.from_decision_points([outcomes[e] for e in truncated])
-                bootstrap[truncated] = critic(finals)
+                bootstrap[truncated] = critic(finals.to(device)).cpu()
             rollout.add(
                 obs=obs,
                 choosing=choosing,
@@ -304,7 +312,7 @@ class MAPPOLearner(Learner):
                 dict(r.final.info["episode"]) for r in results if r.final is not None
             ]
             ticks += int(sum(o.duration for o in outcomes))
-            obs, values = next_obs, next_values
+            obs, on_device, values = next_obs, next_on_device, next_values
         return rollout
 
     def final_state(self) -> dict[str, Any]:

@@ -57,6 +57,11 @@ class SqueezedReplay:
     contiguous block of the ring, so whole episodes can be sampled for the recurrent Q-network;
     the feed-forward learner samples single rows uniformly. When the ring wraps, the oldest rows
     are overwritten and episodes that lost rows are no longer offered as sequences.
+
+    The ring is numpy in host memory whatever the learner's device: rows arrive one decision
+    point at a time from the CPU simulation and the ring is checkpointed as it is, while an
+    update needs only its sampled batch (64 rows, or 16 episodes) on the device, which
+    :class:`~maopg.learner.macdqn.MacDQN` moves there.
     """
 
     def __init__(self, spec: EnvSpec, capacity: int, num_envs: int) -> None:

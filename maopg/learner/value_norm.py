@@ -32,7 +32,7 @@ class ValueNorm(nn.Module):
     @torch.no_grad()
     def update(self, targets: Tensor) -> None:
         """Fold a batch of value targets (any shape) into the running statistics."""
-        x = targets.detach().to(torch.float64).reshape(-1)
+        x = targets.detach().to(self.running_mean.device, torch.float64).reshape(-1)
         if x.numel() == 0:
             return
         weight = self.beta ** x.numel()
@@ -40,17 +40,19 @@ class ValueNorm(nn.Module):
         self.running_mean_sq.mul_(weight).add_((1.0 - weight) * (x * x).mean())
         self.debias.mul_(weight).add_(1.0 - weight)
 
-    def mean_var(self) -> tuple[Tensor, Tensor]:
-        """Debiased mean and variance (variance floored at ``min_var`` for a stable scale)."""
+    def mean_var(self, device: torch.device | None = None) -> tuple[Tensor, Tensor]:
+        """Debiased mean and variance (variance floored at ``min_var`` for a stable scale), on
+        ``device`` (default: the buffers'). The statistics live with the learner's networks,
+        but GAE denormalises on the CPU, so the two scalars travel to the values, not back."""
         debias = self.debias.clamp(min=self.epsilon)
         mean = self.running_mean / debias
         var = (self.running_mean_sq / debias - mean * mean).clamp(min=self.min_var)
-        return mean, var
+        return mean.to(device), var.to(device)
 
     def normalize(self, values: Tensor) -> Tensor:
-        mean, var = self.mean_var()
+        mean, var = self.mean_var(values.device)
         return ((values.to(torch.float64) - mean) / var.sqrt()).to(values.dtype)
 
     def denormalize(self, values: Tensor) -> Tensor:
-        mean, var = self.mean_var()
+        mean, var = self.mean_var(values.device)
         return (values.to(torch.float64) * var.sqrt() + mean).to(values.dtype)

@@ -2,7 +2,9 @@
 protocol of evaluation, videos and the reference policies.
 
 Each keeps its own seeded generator, so a stochastic evaluation is as reproducible as a greedy
-one, and neither imports anything of training.
+one, and neither imports anything of training. They act on whatever device the network is on
+(a point's tensors go there; the generator stays a CPU generator, see
+:func:`~maopg.policy.conditional.draw_multinomial`) and hand back numpy.
 """
 
 from __future__ import annotations
@@ -16,6 +18,18 @@ from maopg.policy.conditional import epsilon_greedy
 from maopg.policy.networks import JointQNetwork, OptionPolicy
 
 
+def _device(network: torch.nn.Module) -> torch.device:
+    return next(network.parameters()).device
+
+
+def _point_tensors(point: DecisionPoint, device: torch.device) -> tuple:
+    """``(obs, choosing, running, available)`` of ``point``, as a batch of one on ``device``."""
+    return (
+        ObsBatch.from_decision_points([point]).to(device),
+        *(t.to(device) for t in stack_conditions([point])),
+    )
+
+
 class DistributionActor:
     """An :class:`OptionPolicy`'s conditional: its mode (``greedy``) or a seeded sample."""
 
@@ -26,10 +40,9 @@ class DistributionActor:
 
     @torch.no_grad()
     def __call__(self, point: DecisionPoint) -> np.ndarray:
-        obs = ObsBatch.from_decision_points([point])
-        dist = self.policy.distribution(obs, *stack_conditions([point]))
+        dist = self.policy.distribution(*_point_tensors(point, _device(self.policy)))
         joint = dist.mode() if self.greedy else dist.sample(self.generator)
-        return joint[0].numpy()
+        return joint[0].cpu().numpy()
 
 
 class QActor:
@@ -49,12 +62,9 @@ class QActor:
     def __call__(self, point: DecisionPoint) -> np.ndarray:
         if point.ticks == 0:
             self.state = self.q.initial_state(1)
-        values, self.state = self.q.step(ObsBatch.from_decision_points([point]), self.state)
+        obs, *conditions = _point_tensors(point, _device(self.q))
+        values, self.state = self.q.step(obs, self.state)
         joint = epsilon_greedy(
-            values,
-            *stack_conditions([point]),
-            self.q.option_counts,
-            self.epsilon,
-            self.generator,
+            values, *conditions, self.q.option_counts, self.epsilon, self.generator
         )
-        return joint[0].numpy()
+        return joint[0].cpu().numpy()

@@ -113,15 +113,28 @@ def joint_slice_mask(
     return _outer_and(agent_masks(choosing, running, available, option_counts))
 
 
+def _strides(option_counts: Sequence[int], device: torch.device) -> Tensor:
+    """``int64 [N]``: how far one step of agent i's option moves in the row-major joint."""
+    strides = [math.prod(option_counts[i + 1 :]) for i in range(len(option_counts))]
+    return torch.tensor(strides, device=device)
+
+
 def ravel_joint(joint: Tensor, option_counts: Sequence[int]) -> Tensor:
     """``int64 [B, N]`` joint options to flat indices ``[B]`` into the row-major joint."""
-    strides = [math.prod(option_counts[i + 1 :]) for i in range(len(option_counts))]
-    return (joint * torch.tensor(strides, device=joint.device)).sum(dim=-1)
+    return (joint * _strides(option_counts, joint.device)).sum(dim=-1)
 
 
 def unravel_joint(flat: Tensor, option_counts: Sequence[int]) -> Tensor:
-    """Flat indices ``[B]`` back to ``int64 [B, N]`` joint options."""
-    return torch.stack(torch.unravel_index(flat, tuple(option_counts)), dim=-1)
+    """Flat indices ``[B]`` back to ``int64 [B, N]`` joint options.
+
+    The integer arithmetic of ``torch.unravel_index``, written out: its argument checks
+    (``torch._check_type``) import ``torch.fx``'s symbolic shapes and sympy at the first call,
+    ~0.3 s of every training process's start-up for the first option drawn.
+    """
+    counts = torch.tensor(tuple(option_counts), device=flat.device)
+    return (
+        flat.unsqueeze(-1).div(_strides(option_counts, flat.device), rounding_mode="floor") % counts
+    )
 
 
 def conditional_log_probs(
@@ -168,6 +181,22 @@ def partial_conditional_log_probs(
     return result
 
 
+def draw_multinomial(weights: Tensor, generator: torch.Generator | None = None) -> Tensor:
+    """One index per row of ``weights`` ``[B, K]`` (``torch.multinomial``), ``[B]`` on the
+    weights' device, drawn on the *generator's* device.
+
+    A CPU generator cannot drive a draw on CUDA tensors, and the learners' generators are CPU
+    generators (checkpointed, seeded from the run's seed): so the weights come to the
+    generator, not the other way round. On a CPU run both moves are no-ops and the draws are
+    exactly those of ``torch.multinomial(weights, 1, generator=generator)``; on CUDA the
+    weights cross to the host once per decision, which acting pays anyway (the joint option
+    goes to the environments as numpy).
+    """
+    device = weights.device if generator is None else generator.device
+    picks = torch.multinomial(weights.to(device), 1, generator=generator).squeeze(-1)
+    return picks.to(weights.device)
+
+
 def _categorical_entropy(log_probs: Tensor) -> Tensor:
     """Entropy over the last dim, with ``0·log 0 = 0`` in forward and backward."""
     finite = torch.isfinite(log_probs)
@@ -191,8 +220,7 @@ class ConditionalJoint:
         return self.log_probs.exp()
 
     def sample(self, generator: torch.Generator | None = None) -> Tensor:
-        flat = torch.multinomial(self.probs, 1, generator=generator).squeeze(-1)
-        return unravel_joint(flat, self.option_counts)
+        return unravel_joint(draw_multinomial(self.probs, generator), self.option_counts)
 
     def log_prob(self, joint: Tensor) -> Tensor:
         """``log π̂`` of ``int64 [B, N]`` joint options; non-choosing entries are ignored."""
@@ -221,10 +249,7 @@ class FactoredConditional:
         self.running = running
 
     def sample(self, generator: torch.Generator | None = None) -> Tensor:
-        picks = [
-            torch.multinomial(lp.exp(), 1, generator=generator).squeeze(-1)
-            for lp in self.agent_log_probs
-        ]
+        picks = [draw_multinomial(lp.exp(), generator) for lp in self.agent_log_probs]
         return torch.where(self.choosing, torch.stack(picks, dim=-1), self.running)
 
     def log_prob(self, joint: Tensor) -> Tensor:
@@ -281,11 +306,13 @@ def epsilon_greedy(
     )
     choosing = choosing.bool()
     masks = torch.split(available.bool(), list(option_counts), dim=-1)
-    explore = torch.rand(choosing.shape, generator=generator) < epsilon
+    # Drawn on the generator's device, like draw_multinomial (a no-op move on the CPU).
+    uniform = torch.rand(choosing.shape, generator=generator, device=generator.device)
+    explore = uniform.to(choosing.device) < epsilon
     for i, mask in enumerate(masks):
         # Rows whose agent i is not choosing may have an all-false mask: give multinomial
         # something valid there; the pick is discarded by the where below.
         weights = torch.where(choosing[:, i : i + 1], mask, True).float()
-        random = torch.multinomial(weights, 1, generator=generator).squeeze(-1)
+        random = draw_multinomial(weights, generator)
         joint[:, i] = torch.where(explore[:, i] & choosing[:, i], random, joint[:, i])
     return torch.where(choosing, joint, running)

@@ -138,7 +138,7 @@ class JointQNetwork(nn.Module):
         """Zero GRU state for ``batch`` fresh episodes (``None`` when feed-forward)."""
         if self.gru is None:
             return None
-        return torch.zeros(1, batch, self.gru.hidden_size)
+        return torch.zeros(1, batch, self.gru.hidden_size, device=self.head.weight.device)
 
     def forward(self, obs: ObsBatch) -> Tensor:
         if self.gru is not None:

@@ -17,6 +17,16 @@ APT_LINE = "sudo apt-get update && sudo apt-get install -y libegl1 libegl-mesa0 
 
 def check() -> str:
     """Render one frame offscreen; return the GL renderer string or raise RuntimeError."""
+    return gl_strings()[1]
+
+
+def gl_strings() -> tuple[str, str]:
+    """Render one frame offscreen; return the GL ``(vendor, renderer)`` or raise RuntimeError.
+
+    The pair says where MuJoCo rendered: Mesa's software rasteriser (``llvmpipe``) on a machine
+    without a GPU, the GPU's driver where EGL found one (on several GPUs,
+    ``MUJOCO_EGL_DEVICE_ID`` picks which).
+    """
     for lib in ("EGL", "GL"):
         if ctypes.util.find_library(lib) is None:
             raise RuntimeError(f"lib{lib} was not found on this system")
@@ -34,10 +44,11 @@ def check() -> str:
             renderer.render()
             from OpenGL import GL
 
-            name = GL.glGetString(GL.GL_RENDERER)
+            names = [GL.glGetString(key) for key in (GL.GL_VENDOR, GL.GL_RENDERER)]
     except Exception as exc:  # mujoco raises several types depending on what is missing
         raise RuntimeError(f"EGL rendering failed: {exc!r}") from exc
-    return name.decode() if isinstance(name, bytes) else str(name)
+    vendor, renderer = (n.decode() if isinstance(n, bytes) else str(n) for n in names)
+    return vendor, renderer
 
 
 def main() -> int:

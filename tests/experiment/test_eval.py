@@ -40,7 +40,14 @@ from maopg.experiment.train_cli import main as train_main
 from maopg.policy import DistributionActor, QActor
 from maopg.tasks import task_entry
 
-RUN = ["batch_ticks=60", "num_envs=2", "checkpoint_every=1", "env.max_ticks=40", "video=false"]
+RUN = [
+    "batch_ticks=60",
+    "num_envs=2",
+    "checkpoint_every=1",
+    "env.max_ticks=40",
+    "video=false",
+    "plot=false",
+]
 TINY = [*RUN, "ppo.epochs=2"]
 TINY_DQN = [*RUN, "dqn.learning_starts=60", "dqn.train_every=20"]
 NAN = math.nan

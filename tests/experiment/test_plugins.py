@@ -17,7 +17,7 @@ from maopg.experiment.eval_cli import main as eval_main
 from maopg.plugins import ENV_VAR
 
 REPO = Path(__file__).resolve().parents[2]
-QUICK = ["progress=false", "batch_ticks=200", "num_envs=2", "ppo.epochs=2"]
+QUICK = ["progress=false", "plot=false", "batch_ticks=200", "num_envs=2", "ppo.epochs=2"]
 
 
 def _run(

@@ -25,7 +25,14 @@ from maopg.learner import CheckpointError, MacDQNConfig, PPOConfig, load_checkpo
 from maopg.tasks import task_names
 
 REPO = Path(__file__).resolve().parents[2]
-RUN = ["batch_ticks=60", "num_envs=2", "progress=false", "video=false", "checkpoint_every=2"]
+RUN = [
+    "batch_ticks=60",
+    "num_envs=2",
+    "progress=false",
+    "video=false",
+    "plot=false",
+    "checkpoint_every=2",
+]
 SECTION = {"ppo": ["ppo.epochs=2"], "dqn": ["dqn.learning_starts=40", "dqn.train_every=20"]}
 
 
@@ -131,9 +138,10 @@ def test_every_method_trains_a_tiny_budget(tmp_path, task, method):
             assert 0 < float(row["epsilon"]) <= 1
         else:
             assert float(row["entropy"]) >= 0
-    for name in ("config.json", "checkpoint.pt", "final.pt", "learning_curve.png"):
+    for name in ("config.json", "checkpoint.pt", "final.pt"):
         assert (run_dir / name).is_file(), name
-    assert not (run_dir / "rollout.mp4").exists()  # video=false
+    for name in ("rollout.mp4", "learning_curve.png"):  # video=false, plot=false
+        assert not (run_dir / name).exists(), name
     assert any((run_dir / "tb").iterdir())
     final = load_checkpoint(run_dir / "final.pt")
     assert final["config"]["method"] == method
@@ -227,6 +235,18 @@ def test_video_of_the_trained_policy(tmp_path, method):
         reader.close()
     assert len(frames) == episode.ticks + 1 and 0 < episode.ticks <= 30
     assert len(set(frames)) == 1 and frames[0][0] >= 64 and frames[0][2] == 3
+
+
+def test_the_learning_curve_is_drawn_unless_plot_is_false(tmp_path):
+    """The default draws ``learning_curve.png``; ``plot`` is resumable, and an extended run
+    with ``plot=false`` leaves no curve of the shorter run behind."""
+    run_dir = tmp_path / "run"
+    args = ["--total-samples", "60", "--run-dir", str(run_dir), *TINY]
+    main([*args, "plot=true"])
+    image = imageio.imread(run_dir / "learning_curve.png")
+    assert image.ndim == 3 and image.shape[0] > 100
+    main([*args[:1], "120", *args[2:], "--resume"])  # plot=false (TINY) from here on
+    assert len(_rows(run_dir)) == 2 and not (run_dir / "learning_curve.png").exists()
 
 
 def test_a_users_registered_task_gets_generic_defaults(tmp_path, monkeypatch):

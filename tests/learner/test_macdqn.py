@@ -263,6 +263,7 @@ TINY = [
     "hidden=32",
     "progress=false",
     "video=false",
+    "plot=false",
     "torch_threads=1",
     "dqn.learning_starts=200",
     "dqn.train_every=10",
