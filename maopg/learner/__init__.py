@@ -2,12 +2,14 @@
 normalisation, the PPO update) and the Mac-DQN baseline (squeezed replay, conditional
 double-Q), each with its own collection loop behind :class:`Learner`, and atomic checkpoints."""
 
-from maopg.learner.base import SHARED_COLUMNS, Actor, Learner, LearnerSetup
+from maopg.learner.base import SHARED_COLUMNS, Actor, Learner, LearnerSetup, NonFiniteError
 from maopg.learner.buffer import Rollout, TrainBatch
 from maopg.learner.checkpoint import (
     CheckpointError,
     capture_global_rng,
+    fitting,
     load_checkpoint,
+    remove_stale_temporaries,
     restore_global_rng,
     save_checkpoint,
 )
@@ -29,6 +31,7 @@ __all__ = [
     "MacDQN",
     "MacDQNConfig",
     "MacDQNLearner",
+    "NonFiniteError",
     "PPOConfig",
     "Rollout",
     "SqueezedReplay",
@@ -36,7 +39,9 @@ __all__ = [
     "ValueNorm",
     "capture_global_rng",
     "compute_gae",
+    "fitting",
     "load_checkpoint",
+    "remove_stale_temporaries",
     "restore_global_rng",
     "save_checkpoint",
 ]
