@@ -6,8 +6,10 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
 RUN=${RUN:-runs/tool_delivery/async/seed0}
-.venv/bin/python -m train --task tool_delivery --method async --seed 0 --run-dir "$RUN" --resume \
-  --total-samples "${SAMPLES:-30000}" "$@"
+RESUME=()
+if [[ -f "$RUN/config.json" ]]; then RESUME=(--resume); fi  # --resume of no run is an error
+.venv/bin/python -m train --task tool_delivery --method async --seed 0 --run-dir "$RUN" \
+  "${RESUME[@]}" --total-samples "${SAMPLES:-30000}" "$@"
 # Greedy (the task is deterministic, so every greedy episode is the same) and sampled options.
 .venv/bin/python -m eval evaluate --checkpoint "$RUN" --episodes 5 --json "$RUN/eval_greedy.json"
 .venv/bin/python -m eval evaluate --checkpoint "$RUN" --episodes 20 --sample --json "$RUN/eval.json"

@@ -24,6 +24,8 @@ it, each agent's observation at the last decision point, by the fields of its na
 
 The option environment only returns at decision points, so per-tick frames come from its tick
 listener (:meth:`OptionEnv.add_tick_listener`), registered for the episode and removed after.
+A video films at most :data:`VIDEO_MAX_TICKS` ticks, whatever the task's ``max_ticks`` (which a
+user may set to a billion): a longer episode is cut there, and its last frame says so.
 Everything is deterministic given the seed: physics, policy (if seeded) and rendering.
 ``python -m eval video`` records one from a checkpoint or a reference policy.
 """
@@ -54,6 +56,10 @@ CAPTION = 28
 GAP = 8
 BLOCK = 16
 """H.264 encodes 16x16 macroblocks; frames are padded to multiples so the writer never resizes."""
+
+VIDEO_MAX_TICKS = 1000
+"""Ticks filmed at most (about 4 minutes at the default 4 fps; ~2.5 minutes to render on Water
+Filling): over three times the longest default episode (Water Filling's 300 ticks)."""
 
 BACKGROUND = (24, 24, 28)
 TEXT = (235, 235, 235)
@@ -120,6 +126,8 @@ class Overlay:
     vectors: Sequence[np.ndarray] = ()
     """Each agent's latest observation vector (what its policy last saw), listed by field under
     the state lines; empty: none shown."""
+    note: str = ""
+    """Highlighted under the tick counter (the last frame of a cut video says so)."""
 
 
 class FrameComposer:
@@ -204,6 +212,8 @@ class FrameComposer:
         head.append((f"return {overlay.ret:+.1f}", TEXT))
         last = "-" if overlay.reward is None else f"{overlay.reward:+.1f}"
         head.append((f"reward {last} (last tick)", TEXT))
+        if overlay.note:
+            head.append((overlay.note, HIGHLIGHT))
         for text, colour in head:
             draw.text((x, y), text, fill=colour, font=self._font)
             y += 26
@@ -246,6 +256,13 @@ class RecordedEpisode:
     ret: float
     ticks: int
     solved: bool
+    """``False`` for a cut episode: it did not finish."""
+    cut: bool = False
+    """The episode went on past ``max_ticks`` of :func:`record_episode`; the video stops there."""
+
+
+class _Cut(Exception):
+    """Raised by the tick listener to leave the episode mid-step at the video's tick limit."""
 
 
 def record_episode(
@@ -256,6 +273,7 @@ def record_episode(
     seed: int = 0,
     fps: int = 4,
     camera_px: int | None = None,
+    max_ticks: int | None = None,
 ) -> RecordedEpisode:
     """Play one episode of ``env``'s task with ``policy`` and write it to ``path`` (MP4).
 
@@ -263,6 +281,11 @@ def record_episode(
     :class:`DecisionPoint` to a joint option (a reference policy or :class:`eval` 's adapter
     of a trained network). A scene task is filmed by its ``overview`` camera; any other task
     by its ``video_frame`` hook, or as its state panel alone.
+
+    An episode still running at tick ``max_ticks`` (default :data:`VIDEO_MAX_TICKS`) is cut
+    there, in the middle of an option if need be, so a video's length is bounded whatever the
+    task's settings; the last frame says so. ``env`` is then left mid-episode (reset it before
+    stepping it again).
     """
     import imageio.v2 as imageio
 
@@ -285,8 +308,9 @@ def record_episode(
     seen: list[Sequence[np.ndarray]] = [()]  # the observations at the last decision point
     writer = imageio.get_writer(path, fps=fps, codec="libx264", macro_block_size=BLOCK)
     frames = [0]
+    limit = VIDEO_MAX_TICKS if max_ticks is None else max_ticks
 
-    def write(tick: int, reward: float | None) -> None:
+    def write(tick: int, reward: float | None, note: str = "") -> None:
         overlay = Overlay(
             tick=tick,
             ret=total[0],
@@ -295,6 +319,7 @@ def record_episode(
             started=started.tolist(),
             state=state_lines(task.name, task.describe()),
             vectors=seen[0],
+            note=note,
         )
         writer.append_data(composer.compose(overlay))
         frames[0] += 1
@@ -303,8 +328,13 @@ def record_episode(
         # what executes now: a finished agent waiting for the others under sync-wait is "idle"
         options[:] = tick_env.running_option_names()
         total[0] += reward
-        write(task.ticks, reward)
+        ticks = task.ticks
+        ends = task.terminated() or task.truncated() or ticks >= env.spec.max_ticks
+        cut = ticks >= limit and not ends
+        write(ticks, reward, "video cut (episode goes on)" if cut else "")
         started[:] = False
+        if cut:
+            raise _Cut
 
     env.add_tick_listener(on_tick)
     try:
@@ -316,6 +346,8 @@ def record_episode(
             joint = np.asarray(policy(point))
             started[:] = point.choosing
             point = env.step(joint)
+    except _Cut:
+        return RecordedEpisode(path, frames[0], composer.shape, total[0], limit, False, cut=True)
     finally:
         env.remove_tick_listener(on_tick)
         writer.close()

@@ -4,7 +4,9 @@ Plugins (``--import MODULE``, repeatable, anywhere on the line; :mod:`maopg.plug
 imported *before* the real parser is built, because the parser's choices — tasks, methods — are
 the registries', which a plugin extends. A mistake of the user's (a bad setting, a missing run
 directory, a plugin that fails to import) ends the command with one line naming it and exit
-status 2; ``--debug`` shows the traceback instead.
+status 2; ``--debug`` shows the traceback instead. A training run that went non-finite (NaN or
+infinity in a loss, gradient or weight) ends the same way: its settings, not the code, are at
+fault.
 """
 
 from __future__ import annotations
@@ -13,7 +15,7 @@ import argparse
 import sys
 from collections.abc import Callable, Sequence
 
-from maopg.learner import CheckpointError
+from maopg.learner import CheckpointError, NonFiniteError
 from maopg.plugins import PluginError, load_plugins
 
 USER_ERRORS = (
@@ -22,6 +24,7 @@ USER_ERRORS = (
     FileNotFoundError,
     FileExistsError,
     CheckpointError,
+    NonFiniteError,
     PluginError,
 )
 """What a user's input can cause; anything else is a bug and keeps its traceback."""

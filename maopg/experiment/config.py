@@ -30,7 +30,7 @@ from maopg.env.ray_backend import INSTALL_HINT, RayOptions, ray_available
 from maopg.env.vector import BACKENDS, EnvConfig
 from maopg.experiment.methods import get_method, section_classes
 from maopg.learner.mappo import PPOConfig
-from maopg.tasks import task_entry
+from maopg.tasks import make_config, task_entry
 
 GENERIC_DEFAULTS: dict[str, Any] = {"batch_ticks": 1000, "total_samples": 100_000, "images": False}
 """For a task that declares no training defaults of its own (``register_task``)."""
@@ -137,7 +137,8 @@ class TrainConfig:
         if cfg.run_dir is None:
             cfg.run_dir = str(Path("runs") / cfg.task / cfg.method / f"seed{cfg.seed}")
         cfg.device = resolve_device(cfg.device)
-        for key in ("total_samples", "batch_ticks", "num_envs", "checkpoint_every", "hidden"):
+        keys = ("total_samples", "batch_ticks", "num_envs", "checkpoint_every", "hidden", "layers")
+        for key in keys:
             if getattr(cfg, key) < 1:
                 raise ValueError(f"{key} must be >= 1, got {getattr(cfg, key)}")
         if cfg.backend not in BACKENDS:
@@ -152,6 +153,7 @@ class TrainConfig:
         if not 0.0 <= cfg.gamma <= 1.0:
             raise ValueError(f"gamma must lie in [0, 1], got {cfg.gamma}")
         cfg.learner.validate()
+        make_config(cfg.task, cfg.env_overrides)  # the task settings' names and kinds
         return cfg
 
     def backend_options(self) -> dict[str, Any]:

@@ -123,9 +123,10 @@ def cmd_video(args: argparse.Namespace) -> int:
         video = record_episode(env, policy, args.out, seed=args.seed, fps=args.fps)
     finally:
         env.close()
+    cut = f" (cut at {video.ticks} ticks, the episode went on)" if video.cut else ""
     print(
         f"{video.path}: {video.frames} frames {video.shape[1]}x{video.shape[0]}, "
-        f"return {video.ret:.1f} in {video.ticks} ticks, solved {video.solved}"
+        f"return {video.ret:.1f} in {video.ticks} ticks, solved {video.solved}{cut}"
     )
     return 0
 

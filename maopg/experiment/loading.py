@@ -18,7 +18,7 @@ from maopg.env import OptionEnv
 from maopg.experiment.config import TrainConfig
 from maopg.experiment.methods import Method, get_method
 from maopg.experiment.run_dir import CHECKPOINT, FINAL
-from maopg.learner import Actor, CheckpointError, load_checkpoint
+from maopg.learner import Actor, CheckpointError, fitting, load_checkpoint
 from maopg.plugins import load_plugins
 
 CHECKPOINT_NAMES = (FINAL, CHECKPOINT)
@@ -83,6 +83,7 @@ def load_trained(path: str | Path, device: str = "cpu") -> Trained:
     key = method.learner.policy_key
     if key not in state:
         raise CheckpointError(f"checkpoint {file} lacks the entries [{key!r}]")
-    policy.load_state_dict(state[key])
+    with fitting(file):
+        policy.load_state_dict(state[key])
     policy.to(config.device)
     return Trained(file, config, method, policy, int(state.get("samples", 0)))

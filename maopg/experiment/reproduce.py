@@ -78,6 +78,9 @@ def cell_state(run_dir: Path) -> str:
 
 
 def _train_args(cell: Cell, run_dir: Path, overrides: Sequence[str]) -> list[str]:
+    """The cell's train command line: ``--resume`` for a partial run (on a new one it is an
+    error, which catches a mistyped directory)."""
+    resume = ["--resume"] if cell_state(run_dir) == "partial" else []
     return [
         "--task",
         cell.task,
@@ -87,7 +90,7 @@ def _train_args(cell: Cell, run_dir: Path, overrides: Sequence[str]) -> list[str
         str(cell.seed),
         "--run-dir",
         str(run_dir),
-        "--resume",
+        *resume,
         "progress=false",
         "video=false",
         *task_entry(cell.task).grid_overrides.get(cell.method, ()),

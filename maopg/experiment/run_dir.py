@@ -3,7 +3,9 @@ scalars, the learning-curve PNG and the ``done.json`` marker.
 
 The CSV is the record the evaluation tools and the resume test read, so floats are written with
 ``repr`` (exact round trip) and a resumed run first cuts the file back to the checkpoint's
-iteration: rows a killed run wrote after its last checkpoint are recomputed, not duplicated.
+sample count: rows a killed run wrote after its last checkpoint are recomputed, not duplicated.
+TensorBoard is cut at the same sample count (its step), so both records keep every row up to the
+checkpoint and nothing after it.
 """
 
 from __future__ import annotations
@@ -12,11 +14,13 @@ import csv
 import json
 import math
 import os
+import shutil
 from pathlib import Path
 from typing import Any
 
 CONFIG = "config.json"
 METRICS = "metrics.csv"
+TENSORBOARD = "tb"
 CHECKPOINT = "checkpoint.pt"
 """Everything needed to resume, written every ``checkpoint_every`` iterations (large)."""
 FINAL = "final.pt"
@@ -43,29 +47,35 @@ class RunLog:
 
     ``columns`` are the method's (:attr:`maopg.experiment.methods.Method.columns`): the first
     two, iteration and samples, index the rows; the rest become TensorBoard scalars over samples.
+    ``resume_samples`` is the sample count of the checkpoint a resumed run continues from: rows
+    after it (a killed run's last ones) are dropped from both records. Without it the run starts
+    from its beginning, and no row or event of an earlier attempt survives.
     """
 
     def __init__(
-        self, run_dir: Path, columns: tuple[str, ...], resume_iteration: int | None = None
+        self, run_dir: Path, columns: tuple[str, ...], resume_samples: int | None = None
     ) -> None:
         from torch.utils.tensorboard import SummaryWriter
 
         self.columns = columns
         self.path = run_dir / METRICS
-        if resume_iteration is None or not self.path.exists():
+        if resume_samples is None or not self.path.exists():
             self.path.write_text(",".join(columns) + "\n")
         else:
             kept = [
                 r
                 for r in read_metrics(self.path)
-                if None not in r.values() and int(r["iteration"]) <= resume_iteration
+                if None not in r.values() and int(r["samples"]) <= resume_samples
             ]
             with self.path.open("w", newline="") as handle:
                 writer = csv.DictWriter(handle, fieldnames=columns)
                 writer.writeheader()
                 writer.writerows(kept)
-        purge = None if resume_iteration is None else resume_iteration + 1
-        self.tb = SummaryWriter(str(run_dir / "tb"), purge_step=purge)
+        if resume_samples is None:
+            shutil.rmtree(run_dir / TENSORBOARD, ignore_errors=True)
+        # TensorBoard hides every event of the earlier files at a step >= purge_step.
+        purge = None if resume_samples is None else resume_samples + 1
+        self.tb = SummaryWriter(str(run_dir / TENSORBOARD), purge_step=purge)
 
     def write(self, row: dict[str, Any]) -> None:
         with self.path.open("a", newline="") as handle:
@@ -75,6 +85,11 @@ class RunLog:
             value = float(row[key])
             if not math.isnan(value):
                 self.tb.add_scalar(f"train/{key}", value, step)
+
+    def flush(self) -> None:
+        """Put the buffered TensorBoard events on disk. Before each checkpoint: a kill after it
+        must not lose the rows the checkpoint covers, which a resume does not log again."""
+        self.tb.flush()
 
     def close(self) -> None:
         self.tb.close()

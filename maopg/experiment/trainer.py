@@ -18,6 +18,7 @@ from __future__ import annotations
 import dataclasses
 import random
 import shutil
+import sys
 import time
 from pathlib import Path
 
@@ -47,8 +48,11 @@ from maopg.experiment.run_dir import (
 from maopg.learner import (
     CheckpointError,
     LearnerSetup,
+    NonFiniteError,
     capture_global_rng,
+    fitting,
     load_checkpoint,
+    remove_stale_temporaries,
     restore_global_rng,
     save_checkpoint,
 )
@@ -84,35 +88,75 @@ def _seed_everything(seed: int) -> tuple[torch.Generator, torch.Generator]:
     )
 
 
-def _prepare_run_dir(config: TrainConfig, resume: bool, overwrite: bool) -> TrainConfig:
-    """Create or reopen the run directory; on resume the saved config wins (see RESUMABLE_KEYS)."""
+def _note(message: str) -> None:
+    print(f"note: {message}", file=sys.stderr)
+
+
+def _differences(ours: dict, theirs: dict) -> dict[str, tuple]:
+    """The keys of two :meth:`TrainConfig.flat` views that differ, but for RESUMABLE_KEYS."""
+    return {
+        key: (ours.get(key), theirs.get(key))
+        for key in sorted(set(ours) | set(theirs))
+        if key not in RESUMABLE_KEYS and ours.get(key) != theirs.get(key)
+    }
+
+
+def _check_run_dir(config: TrainConfig, resume: bool, overwrite: bool) -> TrainConfig | None:
+    """What the run directory allows, before anything is written: the saved config of the run
+    that ``--resume`` continues (the given config must agree with it, see RESUMABLE_KEYS), or
+    ``None`` for a new run."""
     run_dir = Path(config.run_dir)  # type: ignore[arg-type]
     saved = run_dir / CONFIG
-    if resume and saved.exists():
+    if resume:
+        if not saved.exists():
+            raise FileNotFoundError(
+                f"--resume: {run_dir} holds no run ({CONFIG} is missing); check --run-dir, "
+                "or drop --resume to start a new run there"
+            )
         # Resolved on this machine's device: the saved one may be a GPU this machine lacks, and
         # the device is resumable anyway.
         before = dataclasses.replace(TrainConfig.load(saved), device=config.device).resolved()
-        before, now = before.flat(), config.flat()
-        clashes = {
-            key: (before.get(key), now.get(key))
-            for key in sorted(set(before) | set(now))
-            if key not in RESUMABLE_KEYS and before.get(key) != now.get(key)
-        }
+        clashes = _differences(before.flat(), config.flat())
         if clashes:
             raise ValueError(
                 f"--resume of {run_dir}: the config differs from the saved one in "
                 + ", ".join(f"{k} (saved {a!r}, given {b!r})" for k, (a, b) in clashes.items())
             )
-    elif saved.exists() and not resume:
-        if not overwrite:
-            raise FileExistsError(
-                f"run directory {run_dir} already holds a run; pass --resume to continue it, "
-                "--overwrite to start over, or choose another --run-dir"
-            )
+        return before
+    if saved.exists() and not overwrite:
+        raise FileExistsError(
+            f"run directory {run_dir} already holds a run; pass --resume to continue it, "
+            "--overwrite to start over, or choose another --run-dir"
+        )
+    return None
+
+
+def _open_run_dir(config: TrainConfig, *, overwrite: bool) -> None:
+    """Create (``overwrite``: empty) the run directory and save the config; a checkpoint write
+    that a kill interrupted left a temporary file, which goes."""
+    run_dir = Path(config.run_dir)  # type: ignore[arg-type]
+    if overwrite and (run_dir / CONFIG).exists():
         shutil.rmtree(run_dir)
     run_dir.mkdir(parents=True, exist_ok=True)
-    config.save(saved)
-    return config
+    for name in (CHECKPOINT, FINAL):
+        remove_stale_temporaries(run_dir / name)
+    config.save(run_dir / CONFIG)
+
+
+def _check_checkpoint(state: dict, config: TrainConfig, path: Path) -> None:
+    """The checkpoint must come from the run it resumes: method, task, network, settings."""
+    try:
+        written = TrainConfig.from_dict(state["config"]).flat()
+    except ValueError as err:
+        raise CheckpointError(
+            f"checkpoint {path} holds a config this run cannot read: {err}"
+        ) from err
+    clashes = _differences(written, config.flat())
+    if clashes:
+        raise CheckpointError(
+            f"checkpoint {path} was written by another run: its config differs from {CONFIG} in "
+            + ", ".join(f"{k} (checkpoint {a!r}, {CONFIG} {b!r})" for k, (a, b) in clashes.items())
+        )
 
 
 def _envs_state(state: dict, path: Path) -> dict:
@@ -124,21 +168,59 @@ def _envs_state(state: dict, path: Path) -> dict:
     raise CheckpointError(f"checkpoint {path} lacks the entries ['envs']")
 
 
+def _nothing_left(trained: int, config: TrainConfig, saved: TrainConfig) -> bool:
+    """For a finished run that ``config`` resumes: whether its budget is already met (said on
+    stderr, so a smaller budget does not pass unnoticed). A finished run keeps no checkpoint
+    in a results folder, which only matters for a larger budget: it cannot be extended."""
+    run_dir, budget = config.run_dir, config.total_samples
+    if trained >= budget:  # type: ignore[operator]
+        if budget < saved.total_samples:  # type: ignore[operator]
+            _note(
+                f"{run_dir} already trained {trained} samples, more than the budget of {budget} "
+                "it was resumed with; nothing to do"
+            )
+        else:
+            _note(f"{run_dir} is finished ({trained} samples); nothing to do")
+        return True
+    if not (Path(run_dir) / CHECKPOINT).exists():  # type: ignore[arg-type]
+        raise CheckpointError(
+            f"cannot extend {run_dir} to {budget} samples: it finished at {trained} and has no "
+            f"{CHECKPOINT} to continue from"
+        )
+    return False
+
+
+def _stopped(
+    err: NonFiniteError, iteration: int, samples: int, checkpointed: int | None
+) -> NonFiniteError:
+    """The one line that ends a run whose learner went non-finite in ``iteration``: where, what,
+    and which iteration ``checkpoint.pt`` still holds (it never receives non-finite weights)."""
+    kept = (
+        f"{CHECKPOINT} keeps iteration {checkpointed}"
+        if checkpointed is not None
+        else f"no {CHECKPOINT} was written"
+    )
+    return NonFiniteError(
+        f"training stopped in iteration {iteration} (after {samples} samples): {err}; {kept}"
+    )
+
+
 def train(config: TrainConfig, *, resume: bool = False, overwrite: bool = False) -> Path:
-    """Train ``config`` (resolved here) and return the run directory."""
-    config = _prepare_run_dir(config.resolved(), resume, overwrite)
+    """Train ``config`` (resolved here) and return the run directory.
+
+    Everything that can be checked is checked before the first file is written — the config,
+    the run directory, the networks and learner it builds — so a failed start leaves nothing
+    that blocks the corrected command.
+    """
+    config = config.resolved()
+    saved = _check_run_dir(config, resume, overwrite)
     run_dir = Path(config.run_dir)  # type: ignore[arg-type]
-    done = read_done(run_dir) if resume else None
-    if done is not None:
-        if done["samples"] >= config.total_samples:
-            return run_dir  # finished: --resume has nothing to do (even with no checkpoint)
-        # A larger budget: unfinished again until it is reached. The old weights go with the
-        # marker, so a killed extension cannot pass its old policy off as the final one (nor an
-        # old curve: with plot=false none is drawn at the end).
-        (run_dir / DONE).unlink()
-        for stale in (FINAL, VIDEO, CURVE):
-            (run_dir / stale).unlink(missing_ok=True)
     checkpoint_path = run_dir / CHECKPOINT
+    done = read_done(run_dir) if resume else None
+    if done is not None and _nothing_left(done["samples"], config, saved):  # type: ignore[arg-type]
+        return run_dir
+    if done is None and resume and not checkpoint_path.exists():
+        _note(f"{run_dir} has no {CHECKPOINT} yet; --resume starts it from the beginning")
     resume = resume and checkpoint_path.exists()
     if config.torch_threads:
         torch.set_num_threads(config.torch_threads)
@@ -169,20 +251,37 @@ def train(config: TrainConfig, *, resume: bool = False, overwrite: bool = False)
             device=torch.device(config.device),
         )
         learner = method.learner(policy, setup)
+        _open_run_dir(config, overwrite=overwrite and saved is None)  # --resume wins
+        if done is not None:
+            # A larger budget: unfinished again until it is reached. The old weights go with
+            # the marker, so a killed extension cannot pass its old policy off as the final one
+            # (nor an old curve: with plot=false none is drawn at the end).
+            (run_dir / DONE).unlink()
+            for stale in (FINAL, VIDEO, CURVE):
+                (run_dir / stale).unlink(missing_ok=True)
         iteration, samples, wall_time = 0, 0, 0.0
         if resume:
-            state = load_checkpoint(checkpoint_path, required=("iteration",))
-            learner.load_state_dict(state)
-            sample_gen.set_state(state["sample_gen"])
-            update_gen.set_state(state["update_gen"])
-            restore_global_rng(state["global_rng"])
+            state = load_checkpoint(checkpoint_path, required=("iteration", "config"))
+            _check_checkpoint(state, config, checkpoint_path)
+            with fitting(checkpoint_path):
+                learner.load_state_dict(state)
+                sample_gen.set_state(state["sample_gen"])
+                update_gen.set_state(state["update_gen"])
+                restore_global_rng(state["global_rng"])
             envs.load_state_dict(_envs_state(state, checkpoint_path))
             iteration, samples, wall_time = state["iteration"], state["samples"], state["wall_time"]
+            if samples >= config.total_samples:  # type: ignore[operator]
+                _note(
+                    f"{checkpoint_path} already trained {samples} samples, more than the budget "
+                    f"of {config.total_samples} it was resumed with; the run finishes there"
+                )
         else:
             envs.reset()
-        log = RunLog(run_dir, method.columns, resume_iteration=iteration if resume else None)
+        log = RunLog(run_dir, method.columns, resume_samples=samples if resume else None)
+        checkpointed = iteration if resume else None
 
         def checkpoint() -> None:
+            log.flush()
             save_checkpoint(
                 checkpoint_path,
                 {
@@ -206,27 +305,33 @@ def train(config: TrainConfig, *, resume: bool = False, overwrite: bool = False)
             disable=not config.progress,
             dynamic_ncols=True,
         )
-        while samples < config.total_samples:  # type: ignore[operator]
-            start = time.perf_counter()
-            row, ticks = learner.iteration(envs, samples)
-            elapsed = time.perf_counter() - start
-            iteration += 1
-            samples += ticks
-            wall_time += elapsed
-            row.update(
-                iteration=iteration,
-                samples=samples,
-                samples_per_s=ticks / elapsed,
-                wall_time=wall_time,
-            )
-            log.write(row)
-            bar.update(min(ticks, config.total_samples - bar.n))  # type: ignore[operator]
-            if row["episodes"]:
-                bar.set_postfix(ret=f"{row['episode_return']:.1f}", refresh=False)
-            if iteration % config.checkpoint_every == 0 or samples >= config.total_samples:  # type: ignore[operator]
-                checkpoint()
-        bar.close()
-        log.close()
+        try:
+            while samples < config.total_samples:  # type: ignore[operator]
+                start = time.perf_counter()
+                try:
+                    row, ticks = learner.iteration(envs, samples)
+                except NonFiniteError as err:
+                    raise _stopped(err, iteration + 1, samples, checkpointed) from err
+                elapsed = time.perf_counter() - start
+                iteration += 1
+                samples += ticks
+                wall_time += elapsed
+                row.update(
+                    iteration=iteration,
+                    samples=samples,
+                    samples_per_s=ticks / elapsed,
+                    wall_time=wall_time,
+                )
+                log.write(row)
+                bar.update(min(ticks, config.total_samples - bar.n))  # type: ignore[operator]
+                if row["episodes"]:
+                    bar.set_postfix(ret=f"{row['episode_return']:.1f}", refresh=False)
+                if iteration % config.checkpoint_every == 0 or samples >= config.total_samples:  # type: ignore[operator]
+                    checkpoint()
+                    checkpointed = iteration
+        finally:
+            bar.close()
+            log.close()
         save_checkpoint(
             run_dir / FINAL,
             {
@@ -249,7 +354,8 @@ def after_training(run_dir: Path) -> None:
     ``rollout.mp4``.
 
     The policy is loaded back from ``final.pt`` the way ``python -m eval video`` loads it, so
-    the video shows what the saved checkpoint does.
+    the video shows what the saved checkpoint does. Its length is bounded
+    (:data:`maopg.env.video.VIDEO_MAX_TICKS`) whatever the task's ``max_ticks``.
     """
     config = TrainConfig.load(run_dir / CONFIG)
     if config.plot:
@@ -260,6 +366,8 @@ def after_training(run_dir: Path) -> None:
         env = trained.make_env(0)
         try:
             actor = trained.actor(greedy=not config.video_sample)
-            record_episode(env, actor, run_dir / VIDEO, seed=0)
+            video = record_episode(env, actor, run_dir / VIDEO, seed=0)
+            if video.cut:
+                _note(f"{video.path} stops at tick {video.ticks}; the episode went on")
         finally:
             env.close()

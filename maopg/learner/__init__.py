@@ -3,12 +3,14 @@ normalisation, the PPO update) and the Mac-DQN baseline (squeezed replay, condit
 double-Q), each with its own collection loop behind :class:`Learner`, and atomic checkpoints."""
 
 from maopg.learner.adam import Adam
-from maopg.learner.base import SHARED_COLUMNS, Actor, Learner, LearnerSetup
+from maopg.learner.base import SHARED_COLUMNS, Actor, Learner, LearnerSetup, NonFiniteError
 from maopg.learner.buffer import Rollout, TrainBatch
 from maopg.learner.checkpoint import (
     CheckpointError,
     capture_global_rng,
+    fitting,
     load_checkpoint,
+    remove_stale_temporaries,
     restore_global_rng,
     save_checkpoint,
 )
@@ -31,6 +33,7 @@ __all__ = [
     "MacDQN",
     "MacDQNConfig",
     "MacDQNLearner",
+    "NonFiniteError",
     "PPOConfig",
     "Rollout",
     "SqueezedReplay",
@@ -38,7 +41,9 @@ __all__ = [
     "ValueNorm",
     "capture_global_rng",
     "compute_gae",
+    "fitting",
     "load_checkpoint",
+    "remove_stale_temporaries",
     "restore_global_rng",
     "save_checkpoint",
 ]

@@ -10,15 +10,16 @@ termination strategy and a policy builder (``maopg.experiment.methods``).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from abc import ABC, abstractmethod
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
 import torch
-from torch import nn
+from torch import Tensor, nn
 
 from maopg.env.contract import DecisionPoint, EnvSpec
 from maopg.env.vector import SeededVectorEnv
@@ -42,6 +43,37 @@ paper's metric — the two are different quantities and must not be compared."""
 
 Actor = Callable[[DecisionPoint], np.ndarray]
 """A trained policy in the ``DecisionPoint -> joint option`` protocol of evaluation and video."""
+
+
+class NonFiniteError(FloatingPointError):
+    """A loss, gradient or parameter became NaN or infinite: training from there would only
+    spread it through every weight (and be checkpointed), so the learner stops at once."""
+
+
+def require_finite(value: Tensor, what: str) -> None:
+    """Raise :class:`NonFiniteError` naming ``what`` unless every entry of ``value`` is finite.
+    Reads only, so it changes no number of a healthy run."""
+    if not bool(torch.isfinite(value).all()):
+        shown = f"{value.item()}" if value.numel() == 1 else "non-finite"
+        raise NonFiniteError(f"{what} became {shown}")
+
+
+def require_finite_parameters(module: nn.Module, what: str) -> None:
+    """:func:`require_finite` over every parameter of ``module`` (after an optimiser step)."""
+    for name, parameter in module.named_parameters():
+        require_finite(parameter.detach(), f"{what}'s parameter {name}")
+
+
+def check_numbers(config: Any, section: str, unbounded: Collection[str] = ()) -> None:
+    """Reject NaN in every float field of a learner's config section (it is never a setting:
+    it turns every weight into NaN), and ±inf except in ``unbounded``: limits such as a clip
+    range or a gradient-norm bound, where inf means "no limit"."""
+    for item in dataclasses.fields(config):
+        value = getattr(config, item.name)
+        if isinstance(value, float) and (
+            math.isnan(value) or (math.isinf(value) and item.name not in unbounded)
+        ):
+            raise ValueError(f"{section}.{item.name} must be a finite number, got {value}")
 
 
 @dataclass(frozen=True)

@@ -44,8 +44,11 @@ from maopg.learner.base import (
     Actor,
     Learner,
     LearnerSetup,
+    check_numbers,
     episode_metrics,
     mean,
+    require_finite,
+    require_finite_parameters,
 )
 from maopg.learner.replay import SqueezedReplay, point_arrays
 from maopg.policy import (
@@ -119,6 +122,9 @@ class MacDQNConfig:
         return self.eps_start + frac * (self.eps_end - self.eps_start)
 
     def validate(self) -> None:
+        check_numbers(self, "dqn", unbounded=("huber_delta", "max_grad_norm"))
+        if self.lr <= 0.0:
+            raise ValueError(f"dqn.lr must be > 0, got {self.lr}")
         for key in ("batch_size", "batch_episodes", "buffer_size", "train_every"):
             if getattr(self, key) < 1:
                 raise ValueError(f"{key} must be >= 1, got {getattr(self, key)}")
@@ -184,7 +190,9 @@ class MacDQN:
         self.target.load_state_dict(self.q.state_dict())
 
     def update(self, replay: SqueezedReplay, generator: torch.Generator) -> dict[str, float]:
-        """One gradient step on a sampled batch; returns the TD loss and the mean chosen Q."""
+        """One gradient step on a sampled batch; returns the TD loss and the mean chosen Q.
+        A non-finite loss, gradient or weight stops it
+        (:class:`~maopg.learner.base.NonFiniteError`)."""
         cfg = self.config
         if self.q.recurrent:
             q_taken, target = self._sequence_values(
@@ -198,10 +206,13 @@ class MacDQN:
                     batch, self.q(_obs(batch, "next_")), self.target(_obs(batch, "next_"))
                 )
         loss = nn.functional.huber_loss(q_taken, target, delta=cfg.huber_delta)
+        require_finite(loss, "the TD loss")
         self.optimizer.zero_grad()
         loss.backward()
-        nn.utils.clip_grad_norm_(self.q.parameters(), cfg.max_grad_norm)
+        norm = nn.utils.clip_grad_norm_(self.q.parameters(), cfg.max_grad_norm)
+        require_finite(norm, "the Q-network's gradient norm")
         self.optimizer.step()
+        require_finite_parameters(self.q, "the Q-network")
         return {"loss": float(loss.detach()), "q_mean": float(q_taken.detach().mean())}
 
     def _to_device(self, batch: dict[str, Tensor]) -> dict[str, Tensor]:

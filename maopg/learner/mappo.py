@@ -24,7 +24,15 @@ from torch import Tensor, nn
 from maopg.env.contract import EnvSpec
 from maopg.env.vector import SeededVectorEnv
 from maopg.learner.adam import Adam
-from maopg.learner.base import Actor, Learner, LearnerSetup, episode_metrics
+from maopg.learner.base import (
+    Actor,
+    Learner,
+    LearnerSetup,
+    check_numbers,
+    episode_metrics,
+    require_finite,
+    require_finite_parameters,
+)
 from maopg.learner.buffer import Rollout, TrainBatch
 from maopg.learner.gae import DiscountForm
 from maopg.learner.value_norm import ValueNorm
@@ -65,6 +73,12 @@ class PPOConfig:
     """Running mean/var normalisation of the critic's targets."""
 
     def validate(self) -> None:
+        check_numbers(self, "ppo", unbounded=("clip", "value_clip", "huber_delta", "max_grad_norm"))
+        for key in ("lr", "critic_lr"):
+            if getattr(self, key) <= 0.0:
+                raise ValueError(f"ppo.{key} must be > 0, got {getattr(self, key)}")
+        if self.adam_eps < 0.0:
+            raise ValueError(f"ppo.adam_eps must be >= 0, got {self.adam_eps}")
         for key in ("epochs", "num_minibatches"):
             if getattr(self, key) < 1:
                 raise ValueError(f"ppo.{key} must be >= 1, got {getattr(self, key)}")
@@ -142,6 +156,8 @@ class MAPPO:
 
         Updates the value normaliser with the batch's returns first (MAPPO), so the critic's
         targets are normalised with statistics that include them. Returns mean statistics.
+        A non-finite loss or gradient stops it before the step that would spread it, a
+        non-finite weight after the epochs (:class:`~maopg.learner.base.NonFiniteError`).
         """
         cfg = self.config
         if self.value_norm is not None:
@@ -162,13 +178,19 @@ class MAPPO:
             order = torch.randperm(size, generator=generator).to(advantages.device)
             for index in order.tensor_split(num_minibatches):
                 losses = self.losses(batch.rows(index), advantages[index], targets[index])
+                actor_loss = losses.policy - cfg.ent_coef * losses.entropy
+                require_finite(actor_loss, "the actor's loss")
                 self.policy_opt.zero_grad()
-                (losses.policy - cfg.ent_coef * losses.entropy).backward()
-                nn.utils.clip_grad_norm_(self.policy.parameters(), cfg.max_grad_norm)
+                actor_loss.backward()
+                norm = nn.utils.clip_grad_norm_(self.policy.parameters(), cfg.max_grad_norm)
+                require_finite(norm, "the actor's gradient norm")
                 self.policy_opt.step()
+                critic_loss = cfg.value_coef * losses.value
+                require_finite(critic_loss, "the critic's loss")
                 self.critic_opt.zero_grad()
-                (cfg.value_coef * losses.value).backward()
-                nn.utils.clip_grad_norm_(self.critic.parameters(), cfg.max_grad_norm)
+                critic_loss.backward()
+                norm = nn.utils.clip_grad_norm_(self.critic.parameters(), cfg.max_grad_norm)
+                require_finite(norm, "the critic's gradient norm")
                 self.critic_opt.step()
 
                 sums["policy_loss"] += losses.policy.item()
@@ -177,6 +199,8 @@ class MAPPO:
                 sums["approx_kl"] += losses.approx_kl.item()
                 sums["clip_fraction"] += losses.clip_fraction.item()
                 updates += 1
+        require_finite_parameters(self.policy, "the actor")
+        require_finite_parameters(self.critic, "the critic")
         return {key: total / updates for key, total in sums.items()}
 
     def state_dict(self) -> dict[str, dict]:

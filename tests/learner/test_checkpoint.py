@@ -8,6 +8,7 @@ from maopg.learner import (
     CheckpointError,
     capture_global_rng,
     load_checkpoint,
+    remove_stale_temporaries,
     restore_global_rng,
     save_checkpoint,
 )
@@ -81,3 +82,33 @@ def test_code_carrying_pickle_is_refused(tmp_path):
 
 class _Custom:
     pass
+
+
+def test_flipped_tensor_bytes_are_caught_and_old_checkpoints_still_load(tmp_path):
+    weights = {"w": torch.arange(4096, dtype=torch.float32), "n": torch.tensor(3)}
+    path = save_checkpoint(tmp_path / "ck.pt", {"weights": weights, "iteration": 1})
+    assert set(load_checkpoint(path)) == {"weights", "iteration"}  # the checksum is ours
+    data = bytearray(path.read_bytes())
+    at = data.find(torch.arange(4096, dtype=torch.float32)[2000:2002].numpy().tobytes())
+    assert at > 0
+    data[at] ^= 0x01  # one bit of the weights, not of the zip's or the pickle's bookkeeping
+    path.write_bytes(bytes(data))
+    with pytest.raises(CheckpointError, match=rf"checkpoint {path} is corrupt: its tensors"):
+        load_checkpoint(path)
+    torch.save({"weights": weights}, path)  # written before checkpoints carried a checksum
+    torch.testing.assert_close(load_checkpoint(path)["weights"]["w"], weights["w"])
+
+
+def test_only_our_own_stale_temporaries_are_removed(tmp_path):
+    path = tmp_path / "checkpoint.pt"
+    ours = [tmp_path / ".checkpoint.pt.a1_b2c3d.tmp", tmp_path / ".checkpoint.pt.zzzzzzzz.tmp"]
+    others = [
+        tmp_path / ".checkpoint.pt.tmp",
+        tmp_path / ".checkpoint.pt.toolongname.tmp",
+        tmp_path / ".final.pt.a1_b2c3d.tmp",
+        tmp_path / "checkpoint.pt.a1_b2c3d.tmp",
+    ]
+    for file in (*ours, *others):
+        file.write_bytes(b"x")
+    assert sorted(remove_stale_temporaries(path)) == sorted(ours)
+    assert all(file.exists() for file in others) and not any(file.exists() for file in ours)
