@@ -14,6 +14,7 @@ old checkout and the new tree alike (issue 16's "≥ 2× today's" is read from t
 from __future__ import annotations
 
 import argparse
+import contextlib
 import csv
 import runpy
 import sys
@@ -33,8 +34,9 @@ def train_rate(task: str, args: list[str], run_dir: Path) -> tuple[float, int]:
     """(samples/s after the first iteration, iterations) of one run of the command line."""
     argv = ["train", "--task", task, "--method", "async", *args, "--run-dir", str(run_dir)]
     sys.argv = [*argv, "video=false", "progress=false"]
-    try:
-        runpy.run_module("train", run_name="__main__", alter_sys=True)
+    try:  # the command's own output (its run directory) would split the table: to stderr
+        with contextlib.redirect_stdout(sys.stderr):
+            runpy.run_module("train", run_name="__main__", alter_sys=True)
     except SystemExit as stop:
         if stop.code not in (0, None):
             raise
