@@ -259,6 +259,16 @@ def make_new(into: Path) -> Checkout:
     )
 
 
+def checkouts(ref: str, work: Path) -> tuple[Checkout, Checkout, Path]:
+    """The old (``ref``) and new (working tree) checkouts under ``work``, and an empty working
+    directory inside neither, so that ``import maopg`` can only come from ``PYTHONPATH``."""
+    old = make_old(ref, work / "old")
+    new = make_new(work / "new")
+    cwd = work / "cwd"
+    cwd.mkdir()
+    return old, new, cwd
+
+
 def git(*args: str) -> str:
     return subprocess.run(
         ["git", "-C", str(REPO), *args], capture_output=True, text=True, check=True
@@ -331,11 +341,7 @@ def main() -> int:
     workload: dict[tuple[str, str, str], dict[str, set[str]]] = {}
     loads: list[float] = []
     with tempfile.TemporaryDirectory(prefix="maopg-compare-") as tmp:
-        work = Path(tmp)
-        old = make_old(args.ref, work / "old")
-        new = make_new(work / "new")
-        cwd = work / "cwd"
-        cwd.mkdir()
+        old, new, cwd = checkouts(args.ref, Path(tmp))
         for round_ in range(args.rounds):
             for section in runs:
                 pair = ((old, new), (new, old))

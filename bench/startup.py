@@ -40,8 +40,7 @@ from compare_checkouts import (
     Checkout,
     Column,
     Figure,
-    make_new,
-    make_old,
+    checkouts,
     markdown,
     run_script,
 )
@@ -96,11 +95,7 @@ def main() -> int:
     }
     loads: list[float] = []
     with tempfile.TemporaryDirectory(prefix="maopg-startup-") as tmp:
-        work = Path(tmp)
-        old = make_old(args.ref, work / "old")
-        new = make_new(work / "new")
-        cwd = work / "cwd"
-        cwd.mkdir()
+        old, new, cwd = checkouts(args.ref, Path(tmp))
         importer = cwd / "import_trainer.py"
         importer.write_text(IMPORT)
         for checkout in (old, new):  # untimed: compiles each side's .pyc files once
