@@ -95,7 +95,8 @@ def main() -> int:
     }
     loads: list[float] = []
     with tempfile.TemporaryDirectory(prefix="maopg-startup-") as tmp:
-        old, new, cwd = checkouts(args.ref, Path(tmp))
+        work = Path(tmp)
+        old, new, cwd = checkouts(args.ref, work)
         importer = cwd / "import_trainer.py"
         importer.write_text(IMPORT)
         for checkout in (old, new):  # untimed: compiles each side's .pyc files once
