@@ -23,9 +23,9 @@ the curve is the uninterrupted one. A worker that keeps dying (more than
 ``ray.max_replacements`` times in a run) ends the run with an error instead of looping.
 
 **Cost.** Each lockstep option step is one remote call per actor: the joint options go out, the
-next decision points (observations, images) come back through Ray's object store. Measured on
-one machine (BENCHMARKS.md, ``bench/backends.py``) that is about a millisecond per call plus
-the observations' transfer; across machines add one network round trip per option step. An
+next decision points (observations, images) come back in the reply. ``bench/scale_out.py``
+measures that cost on one machine (its δ, in BENCHMARKS.md); across machines add one network
+round trip and the observations' transfer per option step. An
 actor stepping ``k`` environments spreads that over ``k`` environments' physics, so give each
 actor as many environments as it takes for physics to dominate the round trip (docs/DESIGN.md
 §9 works the numbers).
@@ -44,12 +44,13 @@ from typing import Any
 
 import numpy as np
 
-from maopg.env.contract import EnvSpec
+from maopg.env.contract import DecisionPoint, EnvSpec
 from maopg.env.vector_base import (
     EnvConfig,
     SplitVectorEnv,
     digest,
     registrations,
+    split_envs,
     worker_envs,
 )
 from maopg.plugins import env_plugins
@@ -107,8 +108,8 @@ class EnvActor:
         """``LocalVectorEnv.<name>(*args)``, one answer per environment: called with
         ``num_returns`` = the number of environments, so that each answer travels as an object
         of its own — small enough to ride inline in the reply instead of through the object
-        store (Ray's ``max_direct_call_object_size``, 100 KiB), which halves the round trip of
-        an RGB step (docs/DESIGN.md §9). Ray takes a single return value as it is."""
+        store (Ray's ``max_direct_call_object_size``, 100 KiB), one more hop avoided. Ray
+        takes a single return value as it is."""
         answers = getattr(self.envs, name)(*args)
         return answers[0] if len(answers) == 1 else tuple(answers)
 
@@ -179,10 +180,7 @@ class RayVectorEnv(SplitVectorEnv):
         if num_actors < 1:
             raise ValueError(f"num_workers (Ray actors) must be >= 1, got {num_actors}")
         self.num_envs = num_envs
-        self.groups = [
-            [int(e) for e in g]
-            for g in np.array_split(np.arange(num_envs), min(num_actors, num_envs))
-        ]
+        self.groups = split_envs(num_envs, num_actors)
         self._owns_ray = _connect(self.options, len(self.groups))
         self._remote = ray.remote(EnvActor).options(
             num_cpus=self.options.cpus_per_actor, max_restarts=0
@@ -192,7 +190,8 @@ class RayVectorEnv(SplitVectorEnv):
         # What each environment's current episode is made of, to rebuild it on a new actor.
         self.seeds: list[int | None] = [None] * num_envs
         self.actions: list[list[np.ndarray]] = [[] for _ in range(num_envs)]
-        self.digests: list[str | None] = [None] * num_envs
+        self.points: list[DecisionPoint | None] = [None] * num_envs
+        """Each environment's latest point, which a replacement must arrive at again."""
         self.replacements = 0
 
     def _spawn(self, group: list[int]) -> Any:
@@ -248,7 +247,7 @@ class RayVectorEnv(SplitVectorEnv):
             points = results
         else:
             return
-        self.digests = [digest(p) for p in points]
+        self.points = list(points)
 
     def _replace(self, k: int, err: Exception) -> None:
         """A new actor for group ``k``, brought to where the dead one was."""
@@ -275,7 +274,7 @@ class RayVectorEnv(SplitVectorEnv):
             except ray.exceptions.RayActorError as again:
                 err = again
                 continue
-            if [digest(p) for p in points] != [self.digests[e] for e in group]:
+            if [digest(p) for p in points] != [digest(self.points[e]) for e in group]:
                 raise RuntimeError(
                     f"the replacement of Ray actor {k} did not reproduce the decision points "
                     f"of environments {group}: the environment is not deterministic given its "

@@ -48,6 +48,7 @@ from maopg.env.vector_base import (
     digest,
     episode_seed,
     registrations,
+    split_envs,
     worker_envs,
 )
 
@@ -82,10 +83,7 @@ class ThreadVectorEnv(SplitVectorEnv):
         if num_threads < 1:
             raise ValueError(f"num_workers (threads) must be >= 1, got {num_threads}")
         self.num_envs = num_envs
-        self.groups = [
-            [int(e) for e in g]
-            for g in np.array_split(np.arange(num_envs), min(num_threads, num_envs))
-        ]
+        self.groups = split_envs(num_envs, num_threads)
         self.pools = [
             ThreadPoolExecutor(1, thread_name_prefix=f"maopg-env{k}")
             for k in range(len(self.groups))
@@ -156,8 +154,7 @@ class ProcessVectorEnv(SplitVectorEnv):
             raise ValueError(f"num_workers must be >= 1, got {num_workers}")
         ctx = mp.get_context("spawn")
         self.num_envs = num_envs
-        groups = np.array_split(np.arange(num_envs), min(num_workers, num_envs))
-        self.groups = [[int(e) for e in g] for g in groups]
+        self.groups = split_envs(num_envs, num_workers)
         registered = registrations(config.task)
         self.conns: list[Connection] = []
         self.procs = []

@@ -27,6 +27,12 @@ from maopg.sim.robots import RobotSpec, get_robot, register_robot, robot_names
 from maopg.tasks.registry import register_task, task_entry, task_names
 
 
+def split_envs(num_envs: int, parts: int) -> list[list[int]]:
+    """Environments ``0..num_envs-1`` in at most ``parts`` contiguous groups of near-equal size
+    (one per thread, process or actor; never an empty one)."""
+    return [[int(e) for e in g] for g in np.array_split(np.arange(num_envs), min(parts, num_envs))]
+
+
 def episode_seed(run_seed: int, env_index: int, episode: int) -> int:
     """The reset seed of episode ``episode`` of environment ``env_index`` in run ``run_seed``."""
     return int(np.random.SeedSequence([run_seed, env_index, episode]).generate_state(1)[0])
