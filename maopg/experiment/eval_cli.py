@@ -175,10 +175,19 @@ def cmd_table(args: argparse.Namespace) -> int:
 
 def cmd_reproduce(args: argparse.Namespace) -> int:
     from maopg.experiment.reproduce import reproduce
+    from maopg.experiment.studies import get_study, study_names
 
+    if args.list_studies:
+        for name in study_names():
+            study = get_study(name)
+            tasks = ", ".join(f"{t.task} ({len(t.seeds)} seeds)" for t in study.tasks)
+            print(f"{name}: {study.about}\n  tasks: {tasks}\n  methods: {' '.join(study.methods)}")
+        return 0
+    study = get_study(args.study)
     outcomes, written = reproduce(
-        args.runs,
-        args.results,
+        args.runs or study.runs_dir(),
+        args.results or study.results_dir(),
+        study=study,
         thresholds=_thresholds(args.threshold),
         window=args.window,
         train=not args.no_train,
@@ -204,6 +213,7 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
 
 def build_parser() -> argparse.ArgumentParser:
     from maopg.experiment.methods import grid_method_names, method_names
+    from maopg.experiment.studies import PAPER, study_names
     from maopg.tasks import task_entry, task_names
 
     parser = argparse.ArgumentParser(prog=PROG, description=__doc__.split("\n")[0])
@@ -249,16 +259,30 @@ def build_parser() -> argparse.ArgumentParser:
     add_check_robot_arguments(p)  # --robot NAME, --role ground|drone|arm, --timestep
     p.set_defaults(func=cmd_check_robot)  # exit status 0 if every check passes, else 1
 
-    p = sub.add_parser("reproduce", help="resumable methods × tasks × seeds grid, then results")
-    p.add_argument("--runs", type=Path, default=Path("results/runs"))
-    p.add_argument("--results", type=Path, default=Path("results"))
-    p.add_argument("--tasks", nargs="+", default=task_names(), choices=task_names())
-    p.add_argument("--methods", nargs="+", default=grid_method_names(), choices=method_names())
+    p = sub.add_parser(
+        "reproduce", help="a study's resumable methods × tasks × seeds grid, then its results"
+    )
+    p.add_argument(
+        "--study",
+        default=PAPER,
+        choices=study_names(),
+        help="which grid (default %(default)s: the paper's comparison; see --list-studies)",
+    )
+    p.add_argument("--list-studies", action="store_true", help="describe every study and exit")
+    p.add_argument("--runs", type=Path, help="run root (default: the study's, results/runs)")
+    p.add_argument("--results", type=Path, help="results folder (default: the study's, results)")
+    p.add_argument("--tasks", nargs="+", help="a subset of the study's tasks")
+    p.add_argument(
+        "--methods",
+        nargs="+",
+        choices=method_names(),
+        help=f"instead of the study's (paper: {' '.join(grid_method_names())})",
+    )
     p.add_argument(
         "--seeds",
         nargs="+",
         type=int,
-        help="for every task (default: "
+        help="for every task (default: the study's; paper: "
         + ", ".join(f"{t} {len(task_entry(t).grid_seeds)} seeds" for t in task_names())
         + ")",
     )

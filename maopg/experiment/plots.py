@@ -6,10 +6,17 @@ Each method keeps its colour in every figure, so curves can be compared across t
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 
-from maopg.experiment.runs import PAPER_METRIC, RETURN, RunData, group_runs, mean_curve
+from maopg.experiment.runs import (
+    PAPER_METRIC,
+    RETURN,
+    RunData,
+    base_method,
+    group_runs,
+    mean_curve,
+)
 
 METHOD_COLOURS = {
     "async": "tab:red",
@@ -19,10 +26,18 @@ METHOD_COLOURS = {
     "mac-dqn": "tab:orange",
     "partial": "tab:brown",
 }
+LINE_STYLES = ("-", "--", ":", "-.")
+"""Dash patterns of a method's settings groups, in order."""
 METRIC_LABELS = {
     RETURN: "mean episode return",
     PAPER_METRIC: "mean option-step reward (paper's metric)",
 }
+
+
+def ordered_labels(labels: Iterable[str], methods: Sequence[str] | None) -> list[str]:
+    """Group labels in ``methods``' order (each method's variants together), else by name."""
+    rank = {m: i for i, m in enumerate(methods or ())}
+    return sorted(labels, key=lambda label: (rank.get(base_method(label), 0), label))
 
 
 def plot_task(
@@ -33,8 +48,13 @@ def plot_task(
     window: int = 5,
     methods: Sequence[str] | None = None,
     title: str | None = None,
+    references: Mapping[str, float] | None = None,
 ) -> list[Path]:
-    """Plot every method of one task's ``runs``; write ``<out_stem>.png`` and ``.svg``."""
+    """Plot every method of one task's ``runs``; write ``<out_stem>.png`` and ``.svg``.
+
+    ``references`` (name → return, e.g. the scripted and random policies) are drawn as
+    horizontal dashed lines, the levels a curve is read against. A method with several
+    settings groups draws one line per group, in its colour with another dash pattern."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -45,26 +65,35 @@ def plot_task(
         raise ValueError(f"plot_task needs the runs of exactly one task, got {sorted(tasks)}")
     task = tasks.pop()
     groups = group_runs(r for r in runs if methods is None or r.method in methods)
-    order = list(methods) if methods else sorted({m for _, m in groups})
     fig, ax = plt.subplots(figsize=(7, 4.5))
-    for method in order:
-        group = groups.get((task, method))
-        if not group:
-            continue
+    variants: dict[str, int] = {}
+    for label in ordered_labels((name for _, name in groups), methods):
+        group = groups[(task, label)]
         x, mean, std = mean_curve(group, metric, window)
         if x.size == 0:
             continue
+        method = base_method(label)
         colour = METHOD_COLOURS.get(method)
+        style = LINE_STYLES[variants.get(method, 0) % len(LINE_STYLES)]
+        variants[method] = variants.get(method, 0) + 1
         seeds = f"{len(group)} seed{'s' if len(group) > 1 else ''}"
-        ax.plot(x, mean, color=colour, label=f"{method} ({seeds})", lw=2)
+        ax.plot(x, mean, color=colour, ls=style, label=f"{label} ({seeds})", lw=2)
         ax.fill_between(x, mean - std, mean + std, color=colour, alpha=0.2, lw=0)
+    if metric == RETURN:
+        for k, (name, level) in enumerate((references or {}).items()):
+            ax.axhline(
+                level, color="0.35", ls=(0, (4, 2 + 2 * k)), lw=1, label=f"{name} ({level:,.0f})"
+            )
     ax.set_xlabel("low-level samples (ticks)")
     ax.set_ylabel(METRIC_LABELS.get(metric, metric))
-    ax.set_title(title or f"{task}: mean ± std over seeds (moving mean of {window} iterations)")
+    ax.set_title(
+        title or f"{task}\nmean ± std over seeds (moving mean of {window} iterations)",
+        fontsize=11,
+    )
     ax.grid(alpha=0.3)
     ax.ticklabel_format(axis="x", style="sci", scilimits=(0, 3))
     if ax.lines:
-        ax.legend(loc="best")
+        ax.legend(loc="best", fontsize=8)
     fig.tight_layout()
     out_stem = Path(out_stem)
     out_stem.parent.mkdir(parents=True, exist_ok=True)

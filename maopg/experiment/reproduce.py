@@ -40,13 +40,13 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from maopg.experiment.evaluate import evaluate, results_table
-from maopg.experiment.methods import grid_method_names, method_names
+from maopg.experiment.methods import method_names
 from maopg.experiment.plots import curve_table, plot_task
 from maopg.experiment.run_dir import CONFIG, DONE, FINAL
 from maopg.experiment.runs import RunData, discover_runs
-from maopg.experiment.tables import peak_table, threshold_table
+from maopg.experiment.studies import PAPER, Study, StudyTask, get_study
+from maopg.experiment.tables import normalised_table, peak_table, threshold_table
 from maopg.sim.assets import ASSETS_DIR
-from maopg.tasks import task_entry, task_names
 
 PACKAGE = Path(__file__).resolve().parents[1]
 """The ``maopg`` package (installed or cloned) whose code the evaluation cache is keyed on."""
@@ -77,7 +77,7 @@ def cell_state(run_dir: Path) -> str:
     return "new"
 
 
-def _train_args(cell: Cell, run_dir: Path, overrides: Sequence[str]) -> list[str]:
+def _train_args(cell: Cell, run_dir: Path, study: Study, overrides: Sequence[str]) -> list[str]:
     """The cell's train command line: ``--resume`` for a partial run (on a new one it is an
     error, which catches a mistyped directory)."""
     resume = ["--resume"] if cell_state(run_dir) == "partial" else []
@@ -93,14 +93,17 @@ def _train_args(cell: Cell, run_dir: Path, overrides: Sequence[str]) -> list[str
         *resume,
         "progress=false",
         "video=false",
-        *task_entry(cell.task).grid_overrides.get(cell.method, ()),
+        *study.overrides,
+        *study.task(cell.task).train_args(cell.method),
         *overrides,
     ]
 
 
-def _launch(cell: Cell, run_dir: Path, overrides: Sequence[str], in_process: bool) -> str:
+def _launch(
+    cell: Cell, run_dir: Path, study: Study, overrides: Sequence[str], in_process: bool
+) -> str:
     """Train one cell to completion; returns ``done`` or ``failed: <why>``."""
-    args = _train_args(cell, run_dir, overrides)
+    args = _train_args(cell, run_dir, study, overrides)
     if in_process:
         from maopg.experiment.train_cli import main as train_main
 
@@ -122,6 +125,7 @@ def log_to_stderr(message: str) -> None:
 def run_grid(
     runs_root: str | Path,
     *,
+    study: Study | str = PAPER,
     tasks: Sequence[str] | None = None,
     methods: Sequence[str] | None = None,
     seeds: Sequence[int] | None = None,
@@ -132,26 +136,29 @@ def run_grid(
 ) -> dict[Cell, str]:
     """Bring every cell of the grid to ``finished``; returns each cell's outcome:
     ``skipped`` (already finished), ``done``, ``failed: ...`` or, with ``dry_run``, ``would
-    start`` / ``would resume``. ``tasks`` default to every registered one, ``methods`` to the grid's
-    (:func:`~maopg.experiment.methods.grid_method_names`),
-    ``seeds`` replaces every task's declared grid seeds. Raises ``ValueError`` for a task or
-    method that is not registered."""
-    tasks = list(tasks) if tasks is not None else task_names()
-    methods = list(methods) if methods is not None else grid_method_names()
+    start`` / ``would resume``. ``tasks`` and ``methods`` default to the study's (the ``paper``
+    study: every registered task, the grid's methods,
+    :func:`~maopg.experiment.methods.grid_method_names`), ``seeds`` replaces every task's
+    seeds. Raises ``ValueError`` for a task or method that is not registered or not part of
+    the study."""
+    study = get_study(study) if isinstance(study, str) else study
+    tasks = list(tasks) if tasks is not None else [t.task for t in study.tasks]
+    methods = list(methods) if methods is not None else list(study.methods)
     for kind, given, known in (
-        ("task", tasks, task_names()),
+        ("task", tasks, [t.task for t in study.tasks]),
         ("method", methods, method_names()),
     ):
         unknown = [x for x in given if x not in known]
         if unknown:
-            raise ValueError(f"unknown {kind}(s) {unknown}; choose from {list(known)}")
+            what = f"{kind}(s) {unknown} not in study {study.name!r}" if kind == "task" else ""
+            raise ValueError(f"{what or f'unknown {kind}(s) {unknown}'}; choose from {known}")
     runs_root = Path(runs_root).resolve()
     outcomes: dict[Cell, str] = {}
     # Seed-major: an interrupted grid has every method at the same number of seeds.
     cells = [
         Cell(t, m, s)
         for t in tasks
-        for s in (seeds if seeds is not None else task_entry(t).grid_seeds)
+        for s in (seeds if seeds is not None else study.task(t).seeds)
         for m in methods
     ]
     for k, cell in enumerate(cells, 1):
@@ -164,7 +171,7 @@ def run_grid(
             outcomes[cell] = "would resume" if state == "partial" else "would start"
         else:
             log(f"{name}: {'resuming' if state == 'partial' else 'starting'} in {run_dir}")
-            outcomes[cell] = _launch(cell, run_dir, overrides, in_process)
+            outcomes[cell] = _launch(cell, run_dir, study, overrides, in_process)
         log(f"{name}: {outcomes[cell]}")
     return outcomes
 
@@ -175,21 +182,30 @@ def write_results(
     *,
     thresholds: Mapping[str, float] | None = None,
     window: int = 5,
+    references: Mapping[str, tuple[float, float]] | None = None,
+    normalised: bool = False,
 ) -> list[Path]:
-    """Regenerate every figure, curve CSV and table of ``runs`` into ``results_dir``."""
+    """Regenerate every figure, curve CSV and table of ``runs`` into ``results_dir``
+    (``references``: each task's random and scripted return, drawn as reference lines and,
+    in a ``normalised`` study, its scores' scale)."""
     out = Path(results_dir)
     out.mkdir(parents=True, exist_ok=True)
     written: list[Path] = []
     for task in sorted({r.task for r in runs}):
         task_runs = [r for r in runs if r.task == task]
-        written += plot_task(task_runs, out / f"curves_{task}", window=window)
+        lines = None
+        if references and task in references:
+            random, scripted = references[task]
+            lines = {"scripted": scripted, "random": random}
+        written += plot_task(task_runs, out / f"curves_{task}", window=window, references=lines)
         if any(r.method in FIG4_METHODS for r in task_runs):
             written += plot_task(
                 task_runs,
                 out / f"fig4_{task}",
                 window=window,
                 methods=FIG4_METHODS,
-                title=f"{task}: async vs synchronous baselines and end2end (Fig. 4 analog)",
+                title=f"{task}\nasync vs synchronous baselines and end2end (Fig. 4 analog)",
+                references=lines,
             )
         csv_path = out / f"curves_{task}.csv"
         csv_path.write_text(curve_table(task_runs, window=window))
@@ -213,6 +229,9 @@ def write_results(
             + threshold_table(runs, thresholds, window=window, methods=TABLE2_METHODS),
         ),
     ]
+    if normalised and references:
+        title = "Normalised final score: (R − R_random) / (R_scripted − R_random)"
+        sections.insert(0, (title, normalised_table(runs, references)))
     text = "# Results\n\nGenerated by `python -m eval reproduce` from the finished run "
     text += f"directories. Curves are smoothed by a trailing mean over {window} iterations "
     text += "before peaks and thresholds are taken; the final return is the unsmoothed mean "
@@ -261,18 +280,19 @@ def _cached(path: Path, key: dict, compute: Callable[[], list[dict]]) -> list[di
 
 
 def reference_results(
-    tasks: Sequence[str], episodes: int, strategies: Sequence[str] = REFERENCE_STRATEGIES
+    tasks: Sequence[StudyTask], episodes: int, strategies: Sequence[str] = REFERENCE_STRATEGIES
 ) -> list[dict]:
-    """The scripted and uniform-random policies of each task under each strategy: the levels
-    every learning curve is read against (state observations: neither policy looks at images).
+    """The scripted and uniform-random policies of each task (at its study settings) under
+    each strategy: the levels every learning curve is read against (state observations:
+    neither policy looks at images).
     """
     from maopg.env import make_env
     from maopg.env.rollout import REFERENCE_POLICIES, reference_policy
 
     results = []
-    for task in tasks:
+    for study_task in tasks:
         for strategy in strategies:
-            env = make_env(task, strategy, seed=0)
+            env = make_env(study_task.task, strategy, seed=0, overrides=study_task.settings)
             try:
                 for name in REFERENCE_POLICIES:
                     policy = reference_policy(name, env)
@@ -299,24 +319,37 @@ def policy_results(run: RunData, episodes: int) -> list[dict]:
     return results
 
 
+def study_references(
+    study: Study, tasks: Sequence[str], results_dir: str | Path, episodes: int
+) -> list[dict]:
+    """:func:`reference_results` of the study's ``tasks``, cached in ``reference.json``."""
+    chosen = [study.task(t) for t in sorted(tasks)]
+    key: dict = {"episodes": episodes, "tasks": [t.task for t in chosen], "code": code_digest()}
+    if any(t.settings for t in chosen):  # the paper's key stays as it was
+        key["settings"] = {t.task: dict(t.settings) for t in chosen}
+    return _cached(
+        Path(results_dir) / "reference.json", key, lambda: reference_results(chosen, episodes)
+    )
+
+
+def normalising_levels(reference: Sequence[dict]) -> dict[str, tuple[float, float]]:
+    """Each task's ``(random, scripted)`` mean return under ``continue`` (the strategy of the
+    asynchronous methods; one pair per task so every method is scored on the same scale)."""
+    levels = {
+        (r["task"], r["label"]): r["return_mean"] for r in reference if r["strategy"] == "continue"
+    }
+    tasks = {task for task, _ in levels}
+    return {t: (levels[t, "random"], levels[t, "scripted"]) for t in sorted(tasks)}
+
+
 def write_evaluation(
-    runs: Sequence[RunData],
-    results_dir: str | Path,
-    *,
-    episodes: int = 10,
-    reference_episodes: int = 100,
+    runs: Sequence[RunData], results_dir: str | Path, reference: list[dict], *, episodes: int = 10
 ) -> Path:
-    """``evaluation.md``: :func:`reference_results` (cached in ``reference.json`` beside it) and
+    """``evaluation.md``: the ``reference`` policies (:func:`study_references`) and
     :func:`policy_results` of every seed-0 run that kept its weights (cached in the run
     directory's ``evaluation.json``)."""
     out = Path(results_dir)
-    tasks = sorted({r.task for r in runs})
     code = code_digest()
-    reference = _cached(
-        out / "reference.json",
-        {"episodes": reference_episodes, "tasks": tasks, "code": code},
-        lambda: reference_results(tasks, reference_episodes),
-    )
     trained: list[dict] = []
     for run in runs:
         if run.seed == 0 and (run.path / FINAL).exists():
@@ -345,6 +378,7 @@ def reproduce(
     runs_root: str | Path,
     results_dir: str | Path,
     *,
+    study: Study | str = PAPER,
     thresholds: Mapping[str, float] | None = None,
     window: int = 5,
     train: bool = True,
@@ -352,19 +386,25 @@ def reproduce(
     reference_episodes: int = 100,
     **grid_kw,
 ) -> tuple[dict[Cell, str], list[Path]]:
-    """Run (or resume) the grid, then regenerate the results from the finished runs under
-    ``runs_root`` (``eval_episodes=0`` skips ``evaluation.md``; ``reference_episodes`` are the
-    reference policies' episodes in it)."""
-    outcomes = run_grid(runs_root, **grid_kw) if train else {}
+    """Run (or resume) the study's grid, then regenerate the results from the finished runs
+    under ``runs_root`` (``eval_episodes=0`` skips ``evaluation.md``; ``reference_episodes``
+    are the reference policies' episodes in it and in a normalised study's scores)."""
+    study = get_study(study) if isinstance(study, str) else study
+    outcomes = run_grid(runs_root, study=study, **grid_kw) if train else {}
     runs = discover_runs([runs_root]) if Path(runs_root).exists() else []
-    written = write_results(runs, results_dir, thresholds=thresholds, window=window)
+    Path(results_dir).mkdir(parents=True, exist_ok=True)
+    tasks = {r.task for r in runs}
+    reference = []
+    if runs and (eval_episodes > 0 or study.normalised):
+        reference = study_references(study, tasks, results_dir, reference_episodes)
+    written = write_results(
+        runs,
+        results_dir,
+        thresholds=thresholds,
+        window=window,
+        references=normalising_levels(reference),
+        normalised=study.normalised,
+    )
     if eval_episodes > 0 and runs:
-        written.append(
-            write_evaluation(
-                runs,
-                results_dir,
-                episodes=eval_episodes,
-                reference_episodes=reference_episodes,
-            )
-        )
+        written.append(write_evaluation(runs, results_dir, reference, episodes=eval_episodes))
     return outcomes, written

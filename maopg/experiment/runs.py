@@ -5,6 +5,10 @@ and ``metrics.csv`` (one row per iteration: ``samples`` — low-level ticks so f
 ``episode_return`` — mean return of the episodes that ended in the iteration, ``nan`` if none —
 and ``option_step_reward``, the paper's metric). ``done.json`` appears when the run finished.
 
+Runs are grouped by task, method *and* the settings that change what is learnt (a run with
+``env.max_ticks=100`` or a recurrent Mac-DQN is not a seed of the default one); where a method
+has several such groups, each is labelled with the settings that tell them apart.
+
 Curves are noisy per iteration, so statistics use a trailing moving average over ``window``
 iterations that reported a value; every statistic is computed per seed first and then
 summarised as mean ± std over seeds (population std, ``ddof=0``). Unfinished runs are left out
@@ -19,8 +23,9 @@ import json
 import math
 from collections import defaultdict
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -43,6 +48,8 @@ class RunData:
     metrics: dict[str, np.ndarray]
     """Column name → per-iteration values (``nan`` where the iteration had none)."""
     finished: bool
+    config: dict[str, Any] = field(default_factory=dict)
+    """The resolved ``config.json``, flattened to command-line keys (``ppo.lr``, ``env.jars``)."""
 
     def curve(self, metric: str = RETURN, window: int = 1) -> tuple[np.ndarray, np.ndarray]:
         """``(samples, values)`` of ``metric`` over iterations that reported it, smoothed by a
@@ -87,7 +94,44 @@ def load_run(run_dir: str | Path) -> RunData:
         samples=samples,
         metrics=metrics,
         finished=(run_dir / DONE).exists(),
+        config=flatten_config(config),
     )
+
+
+def flatten_config(config: dict[str, Any]) -> dict[str, Any]:
+    """``{"ppo": {"lr": ..}, "env_overrides": {"jars": 8}}`` → ``{"ppo.lr": .., "env.jars": 8}``."""
+    flat: dict[str, Any] = {}
+    for key, value in config.items():
+        prefix = "env" if key == "env_overrides" else key
+        if isinstance(value, dict):
+            flat.update({f"{prefix}.{k}": v for k, v in value.items()})
+        else:
+            flat[key] = value
+    return flat
+
+
+NOT_LEARNT = frozenset(
+    {"task", "method", "seed", "run_dir", "plugins", "progress", "video", "plot"}
+    | {"video_sample", "checkpoint_every", "backend", "num_workers", "device", "torch_threads"}
+)
+"""Settings that identify a run or say where and how it ran, not what it learnt (every backend
+and worker count gives the same curve); ``ray.*`` too."""
+
+
+def _learnt_settings(run: RunData) -> dict[str, Any]:
+    return {k: v for k, v in run.config.items() if k not in NOT_LEARNT and not k.startswith("ray.")}
+
+
+def _variant_labels(runs: Sequence[RunData]) -> list[str]:
+    """For runs of one task and method: ``""`` for each if they share their settings, else
+    each run's values of the settings that differ (``env.max_ticks=100``). A task setting a
+    run does not set reads ``default``; any other key only some configs have (written by an
+    older version) is not compared."""
+    settings = [_learnt_settings(r) for r in runs]
+    keys = {k for s in settings for k in s if k.startswith("env.")}
+    keys |= set.intersection(*(set(s) for s in settings)) if settings else set()
+    differ = sorted(k for k in keys if len({json.dumps(s.get(k, "default")) for s in settings}) > 1)
+    return [", ".join(f"{k}={s.get(k, 'default')}" for k in differ) for s in settings]
 
 
 def discover_runs(roots: Iterable[str | Path], *, unfinished: bool = False) -> list[RunData]:
@@ -107,11 +151,26 @@ def discover_runs(roots: Iterable[str | Path], *, unfinished: bool = False) -> l
 
 
 def group_runs(runs: Iterable[RunData]) -> dict[tuple[str, str], list[RunData]]:
-    """``(task, method)`` → runs (seeds), insertion-ordered by task then method."""
-    groups: dict[tuple[str, str], list[RunData]] = defaultdict(list)
+    """``(task, label)`` → runs (seeds), ordered by task then method. The label is the method,
+    or ``method [settings]`` where the method's runs differ in what they learnt from (module
+    docstring): those are separate groups, never seeds of one."""
+    by_method: dict[tuple[str, str], list[RunData]] = defaultdict(list)
     for run in sorted(runs, key=lambda r: (r.task, r.method, r.seed)):
-        groups[(run.task, run.method)].append(run)
-    return dict(groups)
+        by_method[(run.task, run.method)].append(run)
+    groups: dict[tuple[str, str], list[RunData]] = {}
+    for (task, method), members in by_method.items():
+        labels = _variant_labels(members)
+        for label in sorted(set(labels)):
+            name = f"{method} [{label}]" if label else method
+            groups[(task, name)] = [
+                r for r, lab in zip(members, labels, strict=True) if lab == label
+            ]
+    return groups
+
+
+def base_method(label: str) -> str:
+    """The method of a group label (``"async [env.max_ticks=100]"`` → ``"async"``)."""
+    return label.split(" [", 1)[0]
 
 
 # ----------------------------------------------------------------------------- statistics
@@ -166,7 +225,9 @@ def mean_curve(
     Seeds' iterations end at slightly different sample counts (and report their first episode
     return at different ones), so each smoothed curve is linearly interpolated onto a grid over
     the range **every** seed covers: outside it a "mean over seeds" would be one seed's value
-    and jump. Empty arrays when the seeds share no range.
+    and jump. Seeds that share no range at all (one reported returns only early, another only
+    late) still give a line: over the range any covers, each point the mean of the seeds that
+    cover it. Empty arrays when no seed reported a value.
     """
     curves = [c for c in (r.curve(metric, window) for r in runs) if c[0].size]
     if not curves:
@@ -174,7 +235,10 @@ def mean_curve(
     lo = max(float(s[0]) for s, _ in curves)
     hi = min(float(s[-1]) for s, _ in curves)
     if hi < lo:
-        return np.empty(0), np.empty(0), np.empty(0)
+        lo = min(float(s[0]) for s, _ in curves)
+        hi = max(float(s[-1]) for s, _ in curves)
     grid = np.linspace(lo, hi, points) if hi > lo else np.array([lo])
-    stacked = np.stack([np.interp(grid, s, v) for s, v in curves])
-    return grid, stacked.mean(axis=0), stacked.std(axis=0)
+    stacked = np.stack([np.interp(grid, s, v, left=np.nan, right=np.nan) for s, v in curves])
+    covered = ~np.isnan(stacked).all(axis=0)  # points between disjoint seeds' ranges: none
+    grid, stacked = grid[covered], stacked[:, covered]
+    return grid, np.nanmean(stacked, axis=0), np.nanstd(stacked, axis=0)

@@ -19,6 +19,7 @@ from maopg.experiment.runs import (
     RETURN,
     RunData,
     Summary,
+    base_method,
     final,
     group_runs,
     peak,
@@ -63,7 +64,10 @@ def _selected(
 ) -> list[tuple[tuple[str, str], list[RunData]]]:
     groups = group_runs(r for r in runs if methods is None or r.method in methods)
     order = {m: i for i, m in enumerate(methods or ())}
-    return sorted(groups.items(), key=lambda kv: (kv[0][0], order.get(kv[0][1], 0), kv[0][1]))
+    return sorted(
+        groups.items(),
+        key=lambda kv: (kv[0][0], order.get(base_method(kv[0][1]), 0), kv[0][1]),
+    )
 
 
 def peak_table(
@@ -137,4 +141,29 @@ def threshold_table(
             ]
         )
     header = ["task", "method", "return threshold", "samples to threshold", "seeds reached"]
+    return _markdown(header, rows)
+
+
+def normalised_table(runs: Iterable[RunData], references: Mapping[str, tuple[float, float]]) -> str:
+    """Per task × method: the final return as ``(R − R_random) / (R_scripted − R_random)``.
+
+    ``references`` maps a task to its ``(random, scripted)`` mean returns, measured at the
+    study's settings: 0 is the uniform-random policy, 1 the scripted heuristic.
+    """
+    rows = []
+    for (task, method), group in _selected(runs, None):
+        if task not in references:
+            continue
+        random, scripted = references[task]
+        scores = [(final(r, RETURN) - random) / (scripted - random) for r in group]
+        rows.append(
+            [
+                task,
+                method,
+                _seeds(group),
+                format_summary(Summary.of([final(r, RETURN) for r in group])),
+                format_summary(Summary.of(scores), 2),
+            ]
+        )
+    header = ["task", "method", "seeds", "final episode return (last 10%)", "normalised score"]
     return _markdown(header, rows)

@@ -60,6 +60,7 @@ from maopg.policy import (
     ravel_joint,
     stack_conditions,
 )
+from maopg.policy.joint_size import require_joint_head_fits
 
 
 @dataclass(frozen=True)
@@ -389,5 +390,17 @@ class MacDQNLearner(Learner):
 def joint_q_network(
     spec: EnvSpec, *, hidden: int, layers: int, config: MacDQNConfig
 ) -> JointQNetwork:
-    """Mac-DQN's acting network (the method registry's policy builder)."""
+    """Mac-DQN's acting network (the method registry's policy builder); a team whose joint
+    option set cannot fit is refused before anything is allocated
+    (:mod:`maopg.policy.joint_size`)."""
+    # One update holds Q online, Q online and Q target of the next points for every row.
+    rows = 3 * (config.batch_episodes * spec.max_ticks if config.recurrent else config.batch_size)
+    require_joint_head_fits(
+        spec.option_counts,
+        hidden=hidden,
+        copies=5,  # weights, gradient, Adam's two moments, the target network
+        rows=rows,
+        who="mac-dqn's Q-network",
+        instead="Mac-DQN's centralized Q grows as ΠK_i and cannot scale; use async-ar",
+    )
     return JointQNetwork(spec, hidden=hidden, layers=layers, recurrent=config.recurrent)

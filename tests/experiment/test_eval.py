@@ -13,10 +13,11 @@ import numpy as np
 import pytest
 
 from maopg.env.rollout import run_episode
+from maopg.experiment import studies
 from maopg.experiment.eval_cli import main
 from maopg.experiment.evaluate import evaluate
 from maopg.experiment.loading import load_trained
-from maopg.experiment.plots import curve_table, plot_all
+from maopg.experiment.plots import curve_table, plot_all, plot_task
 from maopg.experiment.reproduce import (
     Cell,
     _train_args,
@@ -29,12 +30,14 @@ from maopg.experiment.run_dir import DONE, FINAL
 from maopg.experiment.runs import (
     discover_runs,
     final,
+    group_runs,
     load_run,
     mean_curve,
     peak,
     samples_to_threshold,
     trailing_mean,
 )
+from maopg.experiment.studies import Study, StudyTask, get_study, register_study
 from maopg.experiment.tables import peak_table, threshold_table
 from maopg.experiment.train_cli import main as train_main
 from maopg.policy import DistributionActor, QActor
@@ -54,12 +57,21 @@ NAN = math.nan
 
 
 def _fake_run(
-    root: Path, task: str, method: str, seed: int, samples, returns, paper=None, finished=True
+    root: Path,
+    task: str,
+    method: str,
+    seed: int,
+    samples,
+    returns,
+    paper=None,
+    finished=True,
+    config=None,
 ):
     """A run directory as the trainer writes it, with known numbers."""
     run_dir = root / task / method / f"seed{seed}"
     run_dir.mkdir(parents=True)
-    (run_dir / "config.json").write_text(json.dumps({"task": task, "method": method, "seed": seed}))
+    settings = {"task": task, "method": method, "seed": seed, **(config or {})}
+    (run_dir / "config.json").write_text(json.dumps(settings))
     paper = paper if paper is not None else [r / 10 if not math.isnan(r) else -1 for r in returns]
     with (run_dir / "metrics.csv").open("w", newline="") as handle:
         writer = csv.writer(handle)
@@ -101,10 +113,41 @@ def test_trailing_mean_and_curve_statistics(fabricated):
     # the range both seeds cover, 200..400 (seed 0 has no return at 100); at 300 (210 + 180) / 2
     assert grid.tolist() == [200, 300, 400]
     assert mean.tolist() == [65.0, 195.0, 185.0] and std.tolist() == [15.0, 15.0, 35.0]
-    # seeds whose reported ranges do not meet give no curve, not an error
+    # seeds whose reported ranges do not meet still draw a line: each point the seeds covering it
     early = _fake_run(fabricated, "water_filling", "async", 0, [100, 200], [1.0, 3.0])
     late = _fake_run(fabricated, "water_filling", "async", 1, [300, 400], [5.0, 7.0])
-    assert all(a.size == 0 for a in mean_curve(discover_runs([early, late])))
+    grid, mean, std = mean_curve(discover_runs([early, late]), points=7)
+    assert grid.tolist() == [100, 150, 200, 300, 350, 400]  # 250 lies between the two: left out
+    assert mean.tolist() == [1.0, 2.0, 3.0, 5.0, 6.0, 7.0] and not std.any()
+
+
+def test_runs_that_learnt_from_different_settings_are_not_pooled(tmp_path):
+    """A run at env.max_ticks=100 or with a recurrent Q is its own row and line, labelled with
+    what differs; where, how and how fast a run ran (backend, workers, device) does not split."""
+    root = tmp_path / "runs"
+    base = {"num_envs": 4, "env_overrides": {}, "dqn": {"recurrent": False}, "backend": "local"}
+    for seed, (backend, ticks) in enumerate([("local", None), ("ray", None), ("local", 100)]):
+        env = {"max_ticks": ticks} if ticks else {}
+        config = {**base, "backend": backend, "env_overrides": env}
+        _fake_run(root, "tool_delivery", "mac-dqn", seed, [100], [1.0], config=config)
+    config = {**base, "dqn": {"recurrent": True}}
+    _fake_run(root, "tool_delivery", "mac-dqn", 3, [100], [2.0], config=config)
+    old = {"num_envs": 4}  # written before the dqn section existed: compared on what it has
+    _fake_run(root, "tool_delivery", "async", 0, [100], [3.0], config=old)
+    _fake_run(root, "tool_delivery", "async", 1, [100], [3.0], config={**old, "ppo": {"lr": 1}})
+    groups = group_runs(discover_runs([root]))
+    assert {label: [r.seed for r in runs] for (_, label), runs in groups.items()} == {
+        "async": [0, 1],
+        "mac-dqn [dqn.recurrent=False, env.max_ticks=100]": [2],
+        "mac-dqn [dqn.recurrent=False, env.max_ticks=default]": [0, 1],
+        "mac-dqn [dqn.recurrent=True, env.max_ticks=default]": [3],
+    }
+    table = peak_table(discover_runs([root]))
+    assert "| tool_delivery | mac-dqn [dqn.recurrent=True, env.max_ticks=default] | 1 |" in table
+    plot_task(discover_runs([root]), tmp_path / "plot", references={"scripted": 2.5})
+    svg = (tmp_path / "plot.svg").read_text()
+    assert "mac-dqn [dqn.recurrent=True, env.max_ticks=default] (1 seed)" in svg
+    assert "scripted (2)" in svg  # the reference level, as a dashed line
 
 
 def test_tables_on_fabricated_runs(fabricated):
@@ -370,10 +413,13 @@ def test_the_default_grid_is_the_committed_one(tmp_path):
         seeds = sorted({c.seed for c in dry if c.task == task})
         assert seeds == list(task_entry(task).grid_seeds)
     assert set(dry.values()) == {"would start"}
-    wf = _train_args(Cell("water_filling", "mac-dqn", 0), tmp_path, ["dqn.buffer_size=20000"])
+    paper = get_study("paper")
+    wf = _train_args(
+        Cell("water_filling", "mac-dqn", 0), tmp_path, paper, ["dqn.buffer_size=20000"]
+    )
     assert wf[-2:] == ["dqn.buffer_size=10000", "dqn.buffer_size=20000"]  # the user's wins
     assert "dqn.buffer_size=10000" not in _train_args(
-        Cell("tool_delivery", "mac-dqn", 0), tmp_path, []
+        Cell("tool_delivery", "mac-dqn", 0), tmp_path, paper, []
     )
 
 
@@ -391,3 +437,47 @@ def test_grid_runs_train_as_a_subprocess(tmp_path):
     config = json.loads((run_dir / "config.json").read_text())
     assert (config["method"], config["seed"], config["batch_ticks"]) == ("sync-wait", 3, 60)
     assert cell_state(run_dir) == "finished"
+
+
+def test_a_registered_study_runs_its_settings_and_scores_against_its_own_references(
+    tmp_path, monkeypatch
+):
+    """A study's task settings reach every run and the reference policies; its normalised
+    score is (R − R_random) / (R_scripted − R_random) with the references at those settings."""
+    settings = {"max_ticks": 40, "human_stage_ticks": 9}
+    study = Study(
+        "tiny-test",
+        "a shorter Tool Delivery",
+        (StudyTask("tool_delivery", (0,), settings),),
+        ("async",),
+        overrides=(*TINY, "total_samples=120"),
+        normalised=True,
+    )
+    monkeypatch.setattr(studies, "_STUDIES", dict(studies._STUDIES))  # registered here only
+    register_study(study.name, lambda: study)
+    assert study.runs_dir() == Path("results/tiny-test/runs")
+    with pytest.raises(ValueError, match="not in study 'tiny-test'"):
+        run_grid(tmp_path, study="tiny-test", tasks=["water_filling"])
+    runs_root, results = tmp_path / "runs", tmp_path / "results"
+    outcomes, _ = reproduce(
+        runs_root,
+        results,
+        study="tiny-test",
+        in_process=True,
+        eval_episodes=0,
+        reference_episodes=2,
+    )
+    assert list(outcomes.values()) == ["done"]
+    config = json.loads((runs_root / "tool_delivery/async/seed0/config.json").read_text())
+    assert config["env_overrides"] == settings
+    reference = json.loads((results / "reference.json").read_text())
+    assert reference["key"]["settings"] == {"tool_delivery": settings}
+    levels = {
+        r["label"]: r["return_mean"] for r in reference["results"] if r["strategy"] == "continue"
+    }
+    (run,) = discover_runs([runs_root])
+    score = (final(run) - levels["random"]) / (levels["scripted"] - levels["random"])
+    assert (
+        f"| tool_delivery | async | 1 | {final(run):.1f} | {score:.2f} |"
+        in (results / "tables.md").read_text()
+    )

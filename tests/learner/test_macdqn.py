@@ -16,15 +16,17 @@ import pytest
 import torch
 
 from maopg.env import make_env
+from maopg.env.contract import AgentSpec, EnvSpec, Strategy
 from maopg.env.rollout import RandomPolicy, run_episode
 from maopg.experiment.config import TrainConfig
 from maopg.experiment.run_dir import TIMING_COLUMNS, read_metrics
 from maopg.experiment.train_cli import main as train_main
 from maopg.experiment.trainer import train
 from maopg.learner.checkpoint import load_checkpoint
-from maopg.learner.macdqn import MacDQN, MacDQNConfig, double_q_target
+from maopg.learner.macdqn import MacDQN, MacDQNConfig, double_q_target, joint_q_network
 from maopg.learner.replay import SqueezedReplay, point_arrays
 from maopg.policy import JointQNetwork, ObsBatch, conditional_argmax, epsilon_greedy, ravel_joint
+from maopg.policy.joint_size import joint_head_bytes, require_joint_head_fits
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -341,3 +343,32 @@ def test_learns_to_beat_the_random_policy(tmp_path):
     random_mean = float(np.mean(random_returns))
     print(f"Mac-DQN last 20 iterations {late:.1f} vs random {random_mean:.1f}")
     assert late > random_mean + 100.0
+
+
+def _team_spec(option_counts: tuple[int, ...]) -> EnvSpec:
+    agents = tuple(
+        AgentSpec(f"robot{i}", "turtlebot", tuple(f"o{j}" for j in range(k)), vector_size=4)
+        for i, k in enumerate(option_counts)
+    )
+    return EnvSpec("team", Strategy.CONTINUE, agents, None, 1.0, 150, 0.99)
+
+
+def test_a_team_too_large_for_the_joint_q_is_refused_with_its_size() -> None:
+    """Eight agents (6^7·8 joint options, ~1.1 GiB of head weights alone, ×5 copies) exceed half
+    of a 4 GiB machine; the refusal names the joint size and the way out, before allocating."""
+    counts = (6,) * 7 + (8,)
+    with pytest.raises(ValueError, match=r"6\^7·8 = 2,239,488 joint options.*async-ar"):
+        require_joint_head_fits(
+            counts, hidden=128, copies=5, rows=192, who="q", instead="use async-ar", memory=4 << 30
+        )
+    need = joint_head_bytes(counts, hidden=128, copies=5, rows=192)
+    require_joint_head_fits(
+        counts, hidden=128, copies=5, rows=192, who="q", instead="-", memory=2 * need + 1
+    )
+    # Through the method's builder on this machine's own memory: a 16-agent team cannot fit
+    # anywhere (6^16 options), the paper's team builds.
+    config = MacDQNConfig()
+    with pytest.raises(ValueError, match=r"mac-dqn's Q-network .* 6\^16 = 2,821,109,907,456"):
+        joint_q_network(_team_spec((6,) * 16), hidden=128, layers=2, config=config)
+    q = joint_q_network(_team_spec((3, 3, 6)), hidden=16, layers=1, config=config)
+    assert q.head.out_features == 54

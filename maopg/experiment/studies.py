@@ -1,0 +1,119 @@
+"""The study registry: a name → the grid of runs one ``eval reproduce`` brings to completion.
+
+A study is a set of tasks — each at its own task settings (a team size, say) and seeds — times a
+set of methods, plus train settings every run shares (a sample budget, camera observations).
+``paper`` is the committed reproduction of the paper, built from the task and method registries
+at the time it is asked for (so a plugin's task or method joins it); the others answer one
+question each and keep their runs and results in a folder of their own, ``results/<study>/``,
+so no two studies pool their runs. Within a study a task appears once: runs are grouped by
+task (``<runs>/<task>/<method>/seed<seed>``), and so are its curves and tables.
+
+A study whose question is "how close to the scripted heuristic" sets ``normalised``: its tables
+add each method's final return as the normalised score ``(R − R_random) / (R_scripted −
+R_random)`` against the reference policies measured at the study's own task settings.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import MappingProxyType
+from typing import Any
+
+from maopg.experiment.methods import grid_method_names
+from maopg.tasks import task_entry, task_names
+
+
+@dataclass(frozen=True)
+class StudyTask:
+    """One task of a study, at its settings and seeds."""
+
+    task: str
+    seeds: tuple[int, ...]
+    settings: Mapping[str, Any] = field(default_factory=dict)
+    """Task settings (``env.KEY=VALUE`` of ``train``) of every run and reference evaluation."""
+    method_overrides: Mapping[str, tuple[str, ...]] = field(default_factory=dict)
+    """Train ``key=value`` settings of one method's runs on this task only."""
+
+    def train_args(self, method: str) -> list[str]:
+        """The ``key=value`` arguments this task adds to a run of ``method``."""
+        settings = [f"env.{key}={_text(value)}" for key, value in self.settings.items()]
+        return [*settings, *self.method_overrides.get(method, ())]
+
+
+def _text(value: Any) -> str:
+    """A task setting as ``train`` parses it back (tuples as comma lists)."""
+    if isinstance(value, tuple | list):
+        return ",".join(_text(v) for v in value)
+    return str(value).lower() if isinstance(value, bool) else str(value)
+
+
+@dataclass(frozen=True)
+class Study:
+    name: str
+    about: str
+    tasks: tuple[StudyTask, ...]
+    methods: tuple[str, ...]
+    overrides: tuple[str, ...] = ()
+    """Train ``key=value`` settings of every run (before the user's own)."""
+    normalised: bool = False
+    """Add the normalised final score to the tables (module docstring)."""
+
+    def __post_init__(self) -> None:
+        names = [t.task for t in self.tasks]
+        if len(set(names)) != len(names):
+            raise ValueError(f"study {self.name!r} lists a task twice: {names}")
+
+    def task(self, name: str) -> StudyTask:
+        for study_task in self.tasks:
+            if study_task.task == name:
+                return study_task
+        raise ValueError(f"task {name!r} is not part of study {self.name!r}")
+
+    def runs_dir(self) -> Path:
+        """Default run root (relative to the working directory)."""
+        return Path("results/runs") if self.name == PAPER else Path("results", self.name, "runs")
+
+    def results_dir(self) -> Path:
+        return Path("results") if self.name == PAPER else Path("results", self.name)
+
+
+PAPER = "paper"
+
+
+def _paper() -> Study:
+    """Every registered task at its defaults and declared grid seeds, every grid method."""
+    tasks = tuple(
+        StudyTask(t, task_entry(t).grid_seeds, method_overrides=task_entry(t).grid_overrides)
+        for t in task_names()
+    )
+    about = "the paper's comparison: every grid method on every task at its default settings"
+    return Study(PAPER, about, tasks, tuple(grid_method_names()))
+
+
+_STUDIES: dict[str, Callable[[], Study]] = {PAPER: _paper}
+
+
+def register_study(name: str, build: Callable[[], Study], *, overwrite: bool = False) -> None:
+    """Add a study (``build`` makes it when asked for, so it may read the registries then)."""
+    if name in _STUDIES and not overwrite:
+        raise ValueError(f"study {name!r} is already registered (pass overwrite=True)")
+    _STUDIES[name] = build
+
+
+def get_study(name: str) -> Study:
+    try:
+        return _STUDIES[name]()
+    except KeyError:
+        known = ", ".join(_STUDIES)
+        raise ValueError(f"unknown study {name!r}; known studies: {known}") from None
+
+
+def study_names() -> list[str]:
+    return list(_STUDIES)
+
+
+def frozen(settings: Mapping[str, Any]) -> Mapping[str, Any]:
+    """A read-only copy, for settings kept in a frozen study."""
+    return MappingProxyType(dict(settings))
