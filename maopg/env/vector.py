@@ -241,6 +241,10 @@ register_backend(
 register_backend("ray", _ray)
 
 
+StepHook = Callable[[Sequence[DecisionPoint], np.ndarray, Sequence[StepResult]], None]
+"""``hook(points acted on, joints [E, N], results)`` after a :meth:`SeededVectorEnv.step`."""
+
+
 class SeededVectorEnv:
     """A backend plus the main-process bookkeeping that makes a run reproducible and resumable
     (see the module docstring): episode seeds, the current points and the options since reset.
@@ -268,6 +272,10 @@ class SeededVectorEnv:
             config, num_envs, seed, num_workers, dict(backend_options or {})
         )
         self.spec: EnvSpec = self.backend.spec()
+        self.on_step: StepHook | None = None
+        """Called after each :meth:`step` with the points acted on, the joints and the results:
+        the trainer's hook for its progress bar (ticks inside a learner's batch, not only
+        after it) and the logged option choices, which no learner needs to know about."""
         self.episode = [0] * num_envs
         self.actions: list[list[np.ndarray]] = [[] for _ in range(num_envs)]
         self.points: list[DecisionPoint] = []
@@ -290,6 +298,7 @@ class SeededVectorEnv:
         if not self.points:
             raise RuntimeError("call reset() or load_state_dict() before step()")
         next_seeds = [episode_seed(self.seed, e, j + 1) for e, j in enumerate(self.episode)]
+        acted_on = self.points
         results = self.backend.step(joints, next_seeds)
         for e, result in enumerate(results):
             if result.final is not None:
@@ -298,6 +307,8 @@ class SeededVectorEnv:
             else:
                 self.actions[e].append(joints[e].copy())
         self.points = [r.point for r in results]
+        if self.on_step is not None:
+            self.on_step(acted_on, joints, results)
         return results
 
     def state_dict(self) -> dict[str, Any]:

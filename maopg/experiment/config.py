@@ -91,6 +91,10 @@ class TrainConfig:
     """Draw ``learning_curve.png`` at the end (~0.5-1 s, mostly importing matplotlib; ``false``
     skips it, as the tests' short runs do: ``python -m eval plot`` draws any run's curves later
     from its ``metrics.csv``)."""
+    eval_episodes: int = 5
+    """Seeded episodes the final policy plays at the end, greedy and sampled, for TensorBoard
+    (``eval/return_greedy``, ``eval/return_sampled``, option choices per agent); 0 skips it, as
+    the reproduction grid does (its ``evaluation.md`` evaluates every run's weights itself)."""
     video_sample: bool = True
     """Sample the video's options from the policy, as in training (Mac-DQN: ε-greedy at its
     final ε); ``false`` takes the greedy option. The greedy policy can loop where the stochastic

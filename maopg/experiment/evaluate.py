@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from tqdm import tqdm
 
 from maopg.env import DecisionPoint, OptionEnv
 from maopg.env.rollout import ReferencePolicy, run_episode
@@ -60,9 +61,16 @@ class EvalResult:
 
 
 def evaluate(
-    env: OptionEnv, policy: ReferencePolicy, episodes: int, *, seed: int = 0, label: str = ""
+    env: OptionEnv,
+    policy: ReferencePolicy,
+    episodes: int,
+    *,
+    seed: int = 0,
+    label: str = "",
+    progress: bool = False,
 ) -> EvalResult:
-    """Play ``episodes`` episodes; episode ``j`` is reset with seed ``seed + j``."""
+    """Play ``episodes`` episodes; episode ``j`` is reset with seed ``seed + j`` (``progress``:
+    a bar over the episodes on stderr)."""
     if episodes < 1:
         raise ValueError(f"episodes must be >= 1, got {episodes}")
     agents = env.spec.agents
@@ -74,7 +82,14 @@ def evaluate(
             choices[i][agents[i].option_names[joint[i]]] += 1
         return joint
 
-    results = [run_episode(env, counted, seed=seed + j) for j in range(episodes)]
+    seeds = tqdm(
+        range(seed, seed + episodes),
+        desc=f"evaluating {label or env.spec.task}",
+        unit="episode",
+        disable=not progress,
+        leave=False,
+    )
+    results = [run_episode(env, counted, seed=j) for j in seeds]
     return EvalResult(
         label=label,
         task=env.spec.task,

@@ -93,6 +93,7 @@ def _train_args(cell: Cell, run_dir: Path, study: Study, overrides: Sequence[str
         *resume,
         "progress=false",
         "video=false",
+        "eval_episodes=0",
         *study.overrides,
         *study.task(cell.task).train_args(cell.method),
         *overrides,

@@ -15,6 +15,7 @@ import json
 import math
 import os
 import shutil
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -85,6 +86,25 @@ class RunLog:
             value = float(row[key])
             if not math.isnan(value):
                 self.tb.add_scalar(f"train/{key}", value, step)
+
+    def scalars(self, prefix: str, values: dict[str, float], step: int) -> None:
+        """TensorBoard-only scalars ``prefix/key`` (their keys vary by task, so no CSV column)."""
+        for key, value in values.items():
+            self.tb.add_scalar(f"{prefix}/{key}", value, step)
+
+    def hparams(self, config: dict[str, Any], metrics: Sequence[str]) -> None:
+        """The run's settings in TensorBoard's HPARAMS tab, paired with the ``metrics`` tags it
+        logs later (a new run only: a resumed one keeps the record of its first start)."""
+        from torch.utils.tensorboard.summary import hparams
+
+        plain = {
+            k: v if isinstance(v, bool | int | float | str) else json.dumps(v)
+            for k, v in config.items()
+            if v is not None
+        }
+        writer = self.tb.file_writer
+        for summary in hparams(plain, dict.fromkeys(metrics, math.nan)):
+            writer.add_summary(summary)
 
     def flush(self) -> None:
         """Put the buffered TensorBoard events on disk. Before each checkpoint: a kill after it

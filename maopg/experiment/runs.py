@@ -113,6 +113,7 @@ def flatten_config(config: dict[str, Any]) -> dict[str, Any]:
 NOT_LEARNT = frozenset(
     {"task", "method", "seed", "run_dir", "plugins", "progress", "video", "plot"}
     | {"video_sample", "checkpoint_every", "backend", "num_workers", "device", "torch_threads"}
+    | {"eval_episodes"}
 )
 """Settings that identify a run or say where and how it ran, not what it learnt (every backend
 and worker count gives the same curve); ``ray.*`` too."""

@@ -30,6 +30,7 @@ from maopg.env.ray_backend import RayOptions
 from maopg.env.vector import SeededVectorEnv
 from maopg.env.video import record_episode
 from maopg.experiment.config import TrainConfig
+from maopg.experiment.evaluate import evaluate
 from maopg.experiment.loading import load_trained
 from maopg.experiment.methods import get_method
 from maopg.experiment.run_dir import (
@@ -39,12 +40,15 @@ from maopg.experiment.run_dir import (
     DONE,
     FINAL,
     METRICS,
+    TENSORBOARD,
     VIDEO,
     RunLog,
     plot_learning_curve,
     read_done,
     write_done,
 )
+from maopg.experiment.tb_video import add_video
+from maopg.experiment.watch import StepWatch
 from maopg.learner import (
     CheckpointError,
     LearnerSetup,
@@ -62,6 +66,7 @@ RESUMABLE_KEYS = (
     "progress",
     "video",
     "video_sample",
+    "eval_episodes",
     "plot",
     "backend",
     "num_workers",
@@ -305,6 +310,10 @@ def train(config: TrainConfig, *, resume: bool = False, overwrite: bool = False)
             disable=not config.progress,
             dynamic_ncols=True,
         )
+        watch = StepWatch(envs.spec, bar)
+        envs.on_step = watch
+        if not resume:
+            log.hparams(config.flat(), EVAL_TAGS)
         try:
             while samples < config.total_samples:  # type: ignore[operator]
                 start = time.perf_counter()
@@ -323,9 +332,11 @@ def train(config: TrainConfig, *, resume: bool = False, overwrite: bool = False)
                     wall_time=wall_time,
                 )
                 log.write(row)
-                bar.update(min(ticks, config.total_samples - bar.n))  # type: ignore[operator]
+                log.scalars("options", watch.take_frequencies(), samples)
+                bar.n = min(samples, config.total_samples)  # type: ignore[type-var]
                 if row["episodes"]:
                     bar.set_postfix(ret=f"{row['episode_return']:.1f}", refresh=False)
+                bar.refresh()
                 if iteration % config.checkpoint_every == 0 or samples >= config.total_samples:  # type: ignore[operator]
                     checkpoint()
                     checkpointed = iteration
@@ -348,26 +359,57 @@ def train(config: TrainConfig, *, resume: bool = False, overwrite: bool = False)
     return run_dir
 
 
+EVAL_TAGS = ("eval/return_greedy", "eval/return_sampled")
+"""The final policy's evaluation in TensorBoard, also the metrics of its HPARAMS tab."""
+
+
 def after_training(run_dir: Path) -> None:
-    """Artifacts of a finished run: with ``plot``, the learning-curve plot and, with ``video``, a
-    rollout of the trained policy (seed 0; sampled, or greedy with ``video_sample=false``) as
+    """Artifacts of a finished run, each in TensorBoard too: with ``eval_episodes``, the final
+    policy's mean return, greedy and sampled, over that many seeded episodes (its option choices
+    per agent beside them); with ``plot``, the learning-curve plot; with ``video``, a rollout of
+    the trained policy (seed 0; sampled, or greedy with ``video_sample=false``) as
     ``rollout.mp4``.
 
-    The policy is loaded back from ``final.pt`` the way ``python -m eval video`` loads it, so
-    the video shows what the saved checkpoint does. Its length is bounded
+    The policy is loaded back from ``final.pt`` the way ``python -m eval`` loads it, so what is
+    reported is what the saved checkpoint does. The video's length is bounded
     (:data:`maopg.env.video.VIDEO_MAX_TICKS`) whatever the task's ``max_ticks``.
     """
+    from torch.utils.tensorboard import SummaryWriter
+
     config = TrainConfig.load(run_dir / CONFIG)
     if config.plot:
         title = f"{config.task} · {config.method} · seed {config.seed}"
         plot_learning_curve(run_dir / METRICS, run_dir / CURVE, title)
-    if config.video:
-        trained = load_trained(run_dir / FINAL)
-        env = trained.make_env(0)
-        try:
+    if not (config.eval_episodes or config.video):
+        return
+    trained = load_trained(run_dir / FINAL)
+    env = trained.make_env(0)
+    tb = SummaryWriter(str(run_dir / TENSORBOARD))
+    try:
+        for greedy, tag in zip((True, False), EVAL_TAGS, strict=True):
+            if not config.eval_episodes:
+                break
+            result = evaluate(
+                env,
+                trained.actor(greedy=greedy),
+                config.eval_episodes,
+                label=tag,
+                progress=config.progress,
+            )
+            tb.add_scalar(tag, float(np.mean(result.returns)), trained.samples)
+            kind = tag.split("_")[-1]
+            for agent, counts in result.choices.items():
+                total = sum(counts.values())
+                for option, count in counts.items():
+                    tb.add_scalar(
+                        f"eval_options_{kind}/{agent}/{option}", count / total, trained.samples
+                    )
+        if config.video:
             actor = trained.actor(greedy=not config.video_sample)
             video = record_episode(env, actor, run_dir / VIDEO, seed=0)
             if video.cut:
                 _note(f"{video.path} stops at tick {video.ticks}; the episode went on")
-        finally:
-            env.close()
+            add_video(tb, "rollout", video.path, trained.samples)
+    finally:
+        tb.close()
+        env.close()

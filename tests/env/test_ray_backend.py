@@ -28,7 +28,7 @@ ray = pytest.importorskip("ray")
 
 CONFIG = EnvConfig(task="tool_delivery", strategy="continue", images=True)
 RUN = ["--seed", "1", "batch_ticks=100", "num_envs=3", "ppo.epochs=2", "progress=false"]
-RUN += ["video=false", "checkpoint_every=2"]
+RUN += ["video=false", "eval_episodes=0", "checkpoint_every=2"]
 
 
 @pytest.fixture(scope="module", autouse=True)

@@ -32,6 +32,7 @@ TINY = [
     "env.max_ticks=60",
     "progress=false",
     "video=false",
+    "eval_episodes=0",
     "plot=false",
 ]
 

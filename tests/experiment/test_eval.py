@@ -49,6 +49,7 @@ RUN = [
     "checkpoint_every=1",
     "env.max_ticks=40",
     "video=false",
+    "eval_episodes=0",
     "plot=false",
 ]
 TINY = [*RUN, "ppo.epochs=2"]

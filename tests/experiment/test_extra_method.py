@@ -109,7 +109,14 @@ def _rows(run_dir: Path) -> list[dict[str, str]]:
 
 
 ARGS = ["--method", "reinforce", "--seed", "1", "batch_ticks=100", "num_envs=2", "env.max_ticks=50"]
-QUIET = ["progress=false", "video=false", "plot=false", "checkpoint_every=1", "reinforce.lr=3e-3"]
+QUIET = [
+    "progress=false",
+    "video=false",
+    "eval_episodes=0",
+    "plot=false",
+    "checkpoint_every=1",
+    "reinforce.lr=3e-3",
+]
 
 
 def test_a_registered_method_trains_resumes_and_evaluates_through_the_cli(

@@ -29,6 +29,7 @@ def test_async_beats_the_random_policy_by_a_wide_margin(tmp_path, method):
         total_samples=BUDGET,
         progress=False,
         video=method == "async",  # the video path is this test's too; once is enough
+        eval_episodes=5 if method == "async" else 0,  # and so is the final evaluation
         run_dir=str(tmp_path / "run"),
     )
     rows = read_metrics(train(config) / "metrics.csv")

@@ -130,7 +130,14 @@ def test_workers_build_a_registered_pettingzoo_task(tasks, tmp_path):
     """The generated config class travels to ``spawn`` workers by reference."""
     run = tmp_path / "run"
     args = ["--task", "spread", "--total-samples", "100", "batch_ticks=50", "ppo.epochs=1"]
-    args += ["backend=processes", "num_workers=2", "video=false", "plot=false", "progress=false"]
+    args += [
+        "backend=processes",
+        "num_workers=2",
+        "video=false",
+        "eval_episodes=0",
+        "plot=false",
+        "progress=false",
+    ]
     assert train_main([*args, "--run-dir", str(run)]) == 0
 
 
@@ -156,7 +163,17 @@ def test_methods_learn_past_the_random_policy_on_simple_spread(tasks, tmp_path, 
     run = tmp_path / method
     args = ["--task", "spread", "--method", method, "--total-samples", "40000", "--seed", "0"]
     assert (
-        train_main([*args, "--run-dir", str(run), "video=false", "plot=false", "progress=false"])
+        train_main(
+            [
+                *args,
+                "--run-dir",
+                str(run),
+                "video=false",
+                "eval_episodes=0",
+                "plot=false",
+                "progress=false",
+            ]
+        )
         == 0
     )
     with (run / "metrics.csv").open() as handle:

@@ -101,7 +101,15 @@ def test_the_environment_variable_and_a_file_path_work_like_import(tmp_path):
     by_file = _run(*installed, *plugin, cwd=elsewhere)
     assert by_file.returncode == 0, by_file.stderr
     run = tmp_path / "run"
-    train = ["maopg.experiment.train_cli", *plugin, "--task", "berries", *QUICK, "video=false"]
+    train = [
+        "maopg.experiment.train_cli",
+        *plugin,
+        "--task",
+        "berries",
+        *QUICK,
+        "video=false",
+        "eval_episodes=0",
+    ]
     train += ["backend=processes", "num_workers=2", "--total-samples", "400", "--run-dir", str(run)]
     trained = _run(*train, cwd=elsewhere)
     assert trained.returncode == 0, trained.stderr
@@ -163,5 +171,18 @@ def test_a_registration_made_in_the_parent_reaches_spawned_workers(monkeypatch, 
     registry.register_task("inline_berries", BerryField, config=BerryConfig)
     args = ["--task", "inline_berries", *QUICK, "backend=processes", "num_workers=2"]
     run = tmp_path / "run"
-    assert train_main([*args, "video=false", "--total-samples", "400", "--run-dir", str(run)]) == 0
+    assert (
+        train_main(
+            [
+                *args,
+                "video=false",
+                "eval_episodes=0",
+                "--total-samples",
+                "400",
+                "--run-dir",
+                str(run),
+            ]
+        )
+        == 0
+    )
     assert (run / "done.json").exists()

@@ -21,7 +21,15 @@ from maopg.experiment.run_dir import TIMING_COLUMNS
 from maopg.experiment.train_cli import main
 from maopg.learner import load_checkpoint, save_checkpoint
 
-RUN = ["--seed", "1", "batch_ticks=60", "num_envs=2", "progress=false", "video=false"]
+RUN = [
+    "--seed",
+    "1",
+    "batch_ticks=60",
+    "num_envs=2",
+    "progress=false",
+    "video=false",
+    "eval_episodes=0",
+]
 PPO = [*RUN, "ppo.epochs=2", "checkpoint_every=2"]
 DQN = ["--method", "mac-dqn", *RUN, "dqn.learning_starts=40", "dqn.train_every=20"]
 

@@ -30,6 +30,7 @@ RUN = [
     "num_envs=2",
     "progress=false",
     "video=false",
+    "eval_episodes=0",
     "plot=false",
     "checkpoint_every=2",
 ]

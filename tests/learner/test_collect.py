@@ -39,9 +39,14 @@ def test_rollout_counts_ticks_and_respects_the_condition(envs):
     envs.reset()
     learner = _learner(envs, 400)
     policy = learner.policy
+    reported: list[int] = []  # the progress hook sees every step's ticks, inside the batch
+    envs.on_step = lambda _points, _joints, results: reported.append(
+        sum(r.outcome.duration for r in results)
+    )
     rollout = learner.collect(envs)
     durations = rollout.grid("duration")
     assert 400 <= rollout.ticks == int(durations.sum()) < 400 + 3 * 150
+    assert len(reported) == rollout.num_steps and sum(reported) == rollout.ticks
     assert durations.min() >= 1
     choosing, running, joint = (rollout.grid(k) for k in ("choosing", "running", "joint"))
     assert choosing.any(axis=-1).all()  # every row is a decision point of every environment

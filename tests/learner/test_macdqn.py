@@ -265,6 +265,7 @@ TINY = [
     "hidden=32",
     "progress=false",
     "video=false",
+    "eval_episodes=0",
     "plot=false",
     "torch_threads=1",
     "dqn.learning_starts=200",
@@ -335,6 +336,7 @@ def test_learns_to_beat_the_random_policy(tmp_path):
         total_samples=30_000,
         progress=False,
         video=False,
+        eval_episodes=0,
         torch_threads=1,
         run_dir=str(tmp_path / "smoke"),
     )

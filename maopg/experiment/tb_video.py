@@ -1,0 +1,61 @@
+"""A rollout video in TensorBoard, as an animated GIF in its IMAGES tab.
+
+TensorBoard plays videos only as animated GIFs inside an image summary; torch's ``add_video``
+makes that GIF with moviepy, which is no dependency of ours. Pillow (one) writes GIFs, so the
+MP4 the run already recorded is read back, shrunk and re-encoded here. The GIF is kept small
+because it is stored inside the event file: every second frame of a long video, 40% of the size,
+64 colours, at most :data:`MAX_FRAMES` frames.
+"""
+
+from __future__ import annotations
+
+import io
+from pathlib import Path
+
+from PIL import Image
+
+MAX_FRAMES = 300
+SCALE = 0.4
+
+
+def gif_bytes(frames: list[Image.Image], fps: float) -> bytes:
+    buffer = io.BytesIO()
+    frames[0].save(
+        buffer,
+        format="GIF",
+        save_all=True,
+        append_images=frames[1:],
+        duration=int(1000 / fps),
+        loop=0,
+    )
+    return buffer.getvalue()
+
+
+def add_video(writer, tag: str, mp4: Path, step: int) -> None:
+    """Add the video at ``mp4`` to ``writer`` (a ``SummaryWriter``) as an animated GIF."""
+    import imageio.v2 as imageio
+    from tensorboard.compat.proto.summary_pb2 import Summary
+
+    reader = imageio.get_reader(mp4)
+    try:
+        fps = float(reader.get_meta_data().get("fps", 4.0))
+        every = 2 if reader.count_frames() > MAX_FRAMES else 1
+        frames = []
+        for k, frame in enumerate(reader):
+            if k % every or len(frames) >= MAX_FRAMES:
+                continue
+            image = Image.fromarray(frame)
+            size = (int(image.width * SCALE), int(image.height * SCALE))
+            frames.append(image.resize(size, Image.BILINEAR).quantize(colors=64))
+    finally:
+        reader.close()
+    if not frames:
+        return
+    width, height = frames[0].size
+    image = Summary.Image(
+        height=height,
+        width=width,
+        colorspace=3,
+        encoded_image_string=gif_bytes(frames, fps / every),
+    )
+    writer.file_writer.add_summary(Summary(value=[Summary.Value(tag=tag, image=image)]), step)
