@@ -375,6 +375,16 @@ def write_evaluation(
     return path
 
 
+def baseline_runs(study: Study, root: str | Path | None = None) -> list[RunData]:
+    """The finished runs of the study's ``baselines`` on its tasks, from the paper's run root
+    (``root``, default ``results/runs``); none when it is absent (a fresh clone keeps them)."""
+    root = Path(root) if root is not None else get_study(PAPER).runs_dir()
+    if not root.exists():
+        return []
+    tasks = {t.task for t in study.tasks}
+    return [r for r in discover_runs([root]) if r.task in tasks and r.method in study.baselines]
+
+
 def reproduce(
     runs_root: str | Path,
     results_dir: str | Path,
@@ -385,14 +395,18 @@ def reproduce(
     train: bool = True,
     eval_episodes: int = 10,
     reference_episodes: int = 100,
+    baseline_root: str | Path | None = None,
     **grid_kw,
 ) -> tuple[dict[Cell, str], list[Path]]:
     """Run (or resume) the study's grid, then regenerate the results from the finished runs
     under ``runs_root`` (``eval_episodes=0`` skips ``evaluation.md``; ``reference_episodes``
-    are the reference policies' episodes in it and in a normalised study's scores)."""
+    are the reference policies' episodes in it and in a normalised study's scores;
+    ``baseline_root``: where the paper's runs are, default its run root)."""
     study = get_study(study) if isinstance(study, str) else study
     outcomes = run_grid(runs_root, study=study, **grid_kw) if train else {}
     runs = discover_runs([runs_root]) if Path(runs_root).exists() else []
+    if study.baselines:
+        runs += baseline_runs(study, baseline_root)
     Path(results_dir).mkdir(parents=True, exist_ok=True)
     tasks = {r.task for r in runs}
     reference = []

@@ -33,13 +33,15 @@ class StudyTask:
     seeds: tuple[int, ...]
     settings: Mapping[str, Any] = field(default_factory=dict)
     """Task settings (``env.KEY=VALUE`` of ``train``) of every run and reference evaluation."""
+    overrides: tuple[str, ...] = ()
+    """Train ``key=value`` settings of every run on this task (its sample budget, say)."""
     method_overrides: Mapping[str, tuple[str, ...]] = field(default_factory=dict)
     """Train ``key=value`` settings of one method's runs on this task only."""
 
     def train_args(self, method: str) -> list[str]:
         """The ``key=value`` arguments this task adds to a run of ``method``."""
         settings = [f"env.{key}={_text(value)}" for key, value in self.settings.items()]
-        return [*settings, *self.method_overrides.get(method, ())]
+        return [*settings, *self.overrides, *self.method_overrides.get(method, ())]
 
 
 def _text(value: Any) -> str:
@@ -59,11 +61,20 @@ class Study:
     """Train ``key=value`` settings of every run (before the user's own)."""
     normalised: bool = False
     """Add the normalised final score to the tables (module docstring)."""
+    baselines: tuple[str, ...] = ()
+    """Methods whose finished runs of the ``paper`` study join this study's figures and tables
+    (read, never trained here): the committed grid a variant is compared with. Only for tasks
+    at their default settings, where the paper's runs are the same experiment."""
 
     def __post_init__(self) -> None:
         names = [t.task for t in self.tasks]
         if len(set(names)) != len(names):
             raise ValueError(f"study {self.name!r} lists a task twice: {names}")
+        if self.baselines and any(t.settings for t in self.tasks):
+            raise ValueError(
+                f"study {self.name!r}: baselines come from the paper's runs, at default task "
+                "settings, and this study changes them"
+            )
 
     def task(self, name: str) -> StudyTask:
         for study_task in self.tasks:

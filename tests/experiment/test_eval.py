@@ -482,3 +482,17 @@ def test_a_registered_study_runs_its_settings_and_scores_against_its_own_referen
         f"| tool_delivery | async | 1 | {final(run):.1f} | {score:.2f} |"
         in (results / "tables.md").read_text()
     )
+    # A study of a variant reads the paper's runs of its baselines beside its own, untrained.
+    tasks = (StudyTask("tool_delivery", (0,)),)
+    variant = Study("variant", "-", tasks, ("async-ar",), baselines=("async",))
+    with pytest.raises(ValueError, match="baselines come from the paper's runs"):
+        Study("bad", "-", study.tasks, ("async-ar",), baselines=("async",))
+    reproduce(
+        tmp_path / "variant_runs",
+        tmp_path / "variant",
+        study=variant,
+        train=False,
+        eval_episodes=0,
+        baseline_root=runs_root,
+    )
+    assert "| tool_delivery | async | 1 |" in (tmp_path / "variant" / "tables.md").read_text()
