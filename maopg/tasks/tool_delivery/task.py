@@ -226,11 +226,12 @@ class ToolDelivery(SceneTask):
         """Drop an unfinished activity (interrupted, or replaced in primitive mode).
 
         A tool in the gripper goes back where the activity found it, so the bookkeeping
-        (staged / found) and the scene agree.
+        (staged / found) and the scene agree. A search that finds nothing grasped nothing (its
+        tool lies elsewhere: on the desk, in a basket, on a bench).
         """
         a = self.state.activity
         if a is not None:
-            grasped = a.kind == "search" and a.progress >= 2
+            grasped = a.kind == "search" and a.ok and a.progress >= 2
             tool = self._holding if self._holding >= 0 else (a.arg if grasped else -1)
             if tool >= 0:
                 self._release(None)
