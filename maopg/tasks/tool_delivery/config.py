@@ -12,6 +12,14 @@ from maopg.tasks.base import TaskConfig
 class Config(TaskConfig):
     """Tool Delivery settings; the defaults are the canonical task's."""
 
+    # The team (maopg/tasks/tool_delivery/team.py): one bay per Fetch, one workshop and tool
+    # sequence per human; checked when the task is built (team.check_team).
+    turtlebots: int = 2
+    """Turtlebots, 1..6 (agents ``turtlebot0..``)."""
+    fetches: int = 1
+    """Fetches, 1 or 2, each with its own bay (agent ``fetch``; ``fetch0, fetch1`` for two)."""
+    humans: int = 1
+    """Humans, 1..2 x fetches, each with its own workshop and three tools."""
     max_ticks: int = 150
     tick_seconds: float = 1.0
     timestep: float = 0.02  # stable for the servos and welds; 50 physics steps per tick
