@@ -186,3 +186,23 @@ def test_an_interrupted_search_that_finds_nothing_leaves_the_tool_where_it_is() 
         np.testing.assert_allclose(env.task.scene.body_position(td.TOOL.format(0)), on_desk)
     finally:
         env.close()
+
+
+def test_readiness_for_a_pass_belongs_to_one_desk() -> None:
+    """A Turtlebot that waited at bay 0's desk and now asks Fetch 1 for a tool is not ready
+    there (it stands in the other bay): the pass fails (-10) instead of reaching across."""
+    env = make_env("tool_delivery", "any", overrides=team_settings((2, 2, 2)))
+    try:
+        turtle, fetch1 = env.spec.agents[0], env.spec.agents[3]
+        get0, get1 = turtle.option_index("GetTool(0)"), turtle.option_index("GetTool(1)")
+        search = [env.spec.agents[2 + f].option_index(f"SearchTool({f},0)") for f in (0, 1)]
+        env.reset()
+        point = env.step([get0, get1, *search])  # both searches end on tick 6
+        assert point.ticks == 6 and point.info["task"]["staged"] == [[0], [3]]
+        assert env.task.state.at_desk[0] == 0, "turtlebot0 waited at bay 0's desk"
+        rewards: list[float] = []
+        env.add_tick_listener(lambda _env, r: rewards.append(r))
+        point = env.step([get1, get1, search[0], fetch1.option_index("PassTo(0)")])
+        assert rewards[0] == -11.0 and point.info["task"]["carried"][0] == []
+    finally:
+        env.close()

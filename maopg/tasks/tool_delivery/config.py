@@ -13,7 +13,8 @@ class Config(TaskConfig):
     """Tool Delivery settings; the defaults are the canonical task's."""
 
     # The team (maopg/tasks/tool_delivery/team.py): one bay per Fetch, one workshop and tool
-    # sequence per human; checked when the task is built (team.check_team).
+    # sequence per human; checked when the task is built (team.check_team). Turtlebots 2..5
+    # wait for passes at team.EXTRA_DESK_SPOTS (0 and 1 at desk_spots); bay 1 mirrors bay 0.
     turtlebots: int = 2
     """Turtlebots, 1..6 (agents ``turtlebot0..``)."""
     fetches: int = 1
