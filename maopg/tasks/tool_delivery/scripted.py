@@ -20,13 +20,14 @@ def scripted_policy(config: Config) -> ScriptedPolicy:
     interleaving its humans, so each gets its next tool in turn); else Wait. At the canonical
     size this reproduces the reference trace's decisions (return 259 in 41 ticks).
 
-    Two rules make it work under the sync strategies too, and never fire under ``continue`` at
-    the canonical size (checked by the trace test). A Turtlebot that re-chooses GetTool at a
-    Fetch's desk counts as ready (the Fetch's own ``waiting`` bits are cleared whenever every
-    option ends at once); a search that ended without a tool more on the desk (cut short under
-    ``any``) is done again. And where every agent chooses at once, a Fetch with nothing to do
-    while another Fetch starts a search or a pass "searches" a tool it already found (a no-op as
-    long as that) instead of Wait, which under ``any`` would cut the other's activity every tick.
+    Three rules make it work under the sync strategies too, and change nothing under
+    ``continue`` at the canonical size (the trace test checks it). A Turtlebot that re-chooses
+    GetTool at its Fetch's desk counts as ready: where every option ended at once, no GetTool is
+    running, so the Fetch's own ``waiting`` bits are all off. A search that ended without one
+    tool more on the desk (cut short under ``any``) is done again. And where every agent chooses
+    at once, a Fetch with nothing to do while another Fetch starts a search or a pass "searches"
+    a tool it already found (a no-op as long as that) instead of Wait, which under ``any`` would
+    cut the other's activity short every tick.
     """
     if config.primitive:
         raise ValueError("the scripted Tool Delivery policy drives options, not primitive actions")
@@ -58,6 +59,22 @@ def scripted_policy(config: Config) -> ScriptedPolicy:
     found = [0] * team.fetches
     before = [-1] * team.fetches
 
+    def ready(point: DecisionView, joint: np.ndarray, f: int) -> list[int]:
+        """Turtlebots a pass of Fetch ``f`` reaches now: its own ``waiting`` bits, and those of
+        its Turtlebots that stand at its desk and re-choose GetTool at this point."""
+        bits = point.vectors[fetch_agents[f]][waiting]
+        return [
+            w
+            for w in team.turtlebot_ids
+            if bits[w] > 0
+            or (
+                point.choosing[w]
+                and home[w] == f
+                and joint[w] == get_tool[w]
+                and point.vectors[w][location][at_desk[w]] > 0
+            )
+        ]
+
     def act(point: DecisionView) -> np.ndarray:
         if point.ticks == 0:
             found[:], before[:] = [0] * team.fetches, [-1] * team.fetches
@@ -74,19 +91,9 @@ def scripted_policy(config: Config) -> ScriptedPolicy:
             if before[f] >= 0 and count > before[f]:
                 found[f] += 1  # the last search staged its tool
             before[f] = -1
-            ready = [
-                w
-                for w in team.turtlebot_ids
-                if point.vectors[a][waiting][w] > 0
-                or (
-                    point.choosing[w]
-                    and joint[w] == get_tool[w]
-                    and home[w] == f
-                    and point.vectors[w][location][at_desk[w]] > 0
-                )
-            ]
-            if desk[0] == 0 and ready:
-                joint[a] = passes[f][ready[0]]
+            waiting_now = ready(point, joint, f)
+            if desk[0] == 0 and waiting_now:
+                joint[a] = passes[f][waiting_now[0]]
             elif found[f] < len(order[f]) and desk[-1] == 0:  # a tool left, desk not full
                 joint[a] = searches[f][found[f]]
                 before[f] = count
