@@ -29,6 +29,10 @@ from maopg.tasks.tool_delivery.team import (
 
 ARENA = ASSETS_DIR / "arenas" / "tool_delivery.xml"
 PROPS = ASSETS_DIR / "props"
+OVERVIEW_BACKOFF = 1.6
+"""How much farther the overview camera backs off (same direction, same field of view) to keep
+the two-bay world in view: doubling the distance for twice the length leaves half the frame
+empty, since the tilted view's footprint grows faster than the distance."""
 
 
 def gripper_body(config: Config, fetch: str) -> str:
@@ -47,8 +51,8 @@ def grow_arena(builder: SceneBuilder, team: Team) -> None:
     """Add what a team beyond the canonical one needs to the canonical arena.
 
     Two Fetches: the world doubles along y (floor, walls, the tool room's floor and its
-    partition mirrored, the overview camera backed off to keep the whole world in view) and
-    bay 1's desk is added. Every further human gets a shelf with its three tools and a
+    partition mirrored, the overview camera backed off by ``OVERVIEW_BACKOFF``) and bay 1's desk
+    is added. Every further human gets a shelf with its three tools and a
     workbench at its workshop.
     """
     spec, height = builder.spec, team.height
@@ -69,7 +73,7 @@ def grow_arena(builder: SceneBuilder, team: Team) -> None:
         spec.geom("partition_n").size = south.size
         camera = spec.camera("overview")
         centre = np.array([3.5, BAY_HEIGHT / 2, 0.0])
-        camera.pos = [3.5, height / 2, 0.0] + (np.asarray(camera.pos) - centre) * scale
+        camera.pos = [3.5, height / 2, 0.0] + (np.asarray(camera.pos) - centre) * OVERVIEW_BACKOFF
         for f in team.fetch_ids[1:]:
             builder.add_prop(team.desk(f), PROPS / "desk.xml", (*team.desk_center(f), 0.0))
     for h in range(1, team.humans):
