@@ -71,6 +71,17 @@ def test_names_and_observations_of_the_benchmark_team() -> None:
 
 
 @pytest.mark.parametrize("size", LARGEST, ids=size_id)
+def test_each_tool_starts_on_its_humans_shelf(size) -> None:
+    config = Config(**team_settings(size))
+    team, scene = Team.of(config), build_scene(config)
+    for t in range(team.num_tools):
+        tool = scene.body_position(td.TOOL.format(t))
+        slot = scene.site_position(team.shelf_slot(t))
+        np.testing.assert_allclose(tool[:2], slot[:2], atol=1e-9, err_msg=str(t))
+        assert 0.0 < tool[2] - slot[2] < 0.03, (t, tool, slot)  # each tool's own rest height
+
+
+@pytest.mark.parametrize("size", LARGEST, ids=size_id)
 def test_every_route_between_waypoints_misses_the_furniture(size) -> None:
     """Turtlebots drive straight (GoTo): every pair of waypoints a Turtlebot may use is joined
     by a free straight segment for its footprint (the planner's occupancy grid). Positions do

@@ -22,7 +22,8 @@ from maopg.tasks.tool_delivery.constants import BASKET, NUM_TOOLS, TOOL
 from maopg.tasks.tool_delivery.team import (
     BAY_HEIGHT,
     HUMAN_OFFSET,
-    SHELF_SLOT,
+    SHELF_TOP,
+    SLOT_SPACING,
     TOOL_FILES,
     Team,
 )
@@ -82,8 +83,8 @@ def grow_arena(builder: SceneBuilder, team: Team) -> None:
         wx, wy = team.workshops[h]
         builder.add_prop(team.human(h), PROPS / "human.xml", (wx + HUMAN_OFFSET, wy, 0.0))
         for j in range(NUM_TOOLS):
-            offset = (j - 1) * SHELF_SLOT[1]
-            slot = (x - offset * math.sin(yaw), y + offset * math.cos(yaw), SHELF_SLOT[2])
+            offset = (j - 1) * SLOT_SPACING
+            slot = (x - offset * math.sin(yaw), y + offset * math.cos(yaw), SHELF_TOP)
             builder.add_prop(f"tool{team.tool(h, j)}", PROPS / TOOL_FILES[j], slot, yaw)
 
 

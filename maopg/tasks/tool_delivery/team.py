@@ -67,8 +67,9 @@ DESK = (1.75, 1.8)
 """Centre of bay 0's staging desk (the arena's)."""
 SHELVES = (((0.3, 1.8), 0.0), ((0.9, 0.75), math.pi / 2))
 """Bay 0's shelf spots (centre, yaw): the canonical one west of the Fetch, a second one south."""
-SHELF_SLOT = (0.0, 0.3, 0.82)
-"""A shelf's slot ``j`` lies at ``(0, (j - 1) * 0.3, 0.82)`` in the shelf's frame."""
+SLOT_SPACING, SHELF_TOP = 0.3, 0.82
+"""A shelf's slot ``j`` lies at ``(0, (j - 1) * SLOT_SPACING, SHELF_TOP)`` in the shelf's frame
+(the slot sites of ``assets/props/shelf.xml``), where a new shelf's tools start."""
 WORKSHOP_ROWS = (WORKSHOP[1], 1.0)
 """The y of the first and second workshop of bay 0 (2 m apart, clear of each other's bench)."""
 HUMAN_OFFSET = 0.75
