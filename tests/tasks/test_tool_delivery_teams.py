@@ -16,6 +16,7 @@ from maopg.env import make_env
 from maopg.env.rollout import RandomPolicy, reference_policy, run_episode
 from maopg.env.video import state_lines
 from maopg.sim.planning import occupancy_grid
+from maopg.tasks import make_config
 from maopg.tasks.tool_delivery import constants as td
 from maopg.tasks.tool_delivery.config import Config
 from maopg.tasks.tool_delivery.scene import build_scene
@@ -149,7 +150,9 @@ def test_the_same_seed_gives_the_same_trajectory(size) -> None:
 )
 def test_impossible_teams_are_refused_by_name(settings, message: str) -> None:
     with pytest.raises(ValueError, match=message):
-        make_env("tool_delivery", overrides=settings)
+        make_config("tool_delivery", settings)  # where runs check their settings, up front
+    with pytest.raises(ValueError, match=message):
+        Config(**settings)
 
 
 def test_the_scripted_policy_needs_a_turtlebot_per_fetch() -> None:

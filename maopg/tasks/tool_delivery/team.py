@@ -55,8 +55,6 @@ from maopg.tasks.tool_delivery.constants import (
     search_tool,
 )
 
-MAX_TURTLEBOTS, MAX_FETCHES, MAX_HUMANS_PER_FETCH = 6, 2, 2
-"""The team sizes the layout has room for (see the module docstring)."""
 BAY_HEIGHT = 5.0
 """A bay is the canonical world's 5 m along y; the world is ``5 m x fetches`` tall."""
 EXTRA_DESK_SPOTS = ((1.0, 2.6), (0.4, 2.6), (1.6, 2.6), (2.0, 2.3))
@@ -78,23 +76,6 @@ TOOL_FILES = ("tool_wrench.xml", "tool_hammer.xml", "tool_screwdriver.xml")
 """The prop of each tool kind ``j`` (the arena's tools 0..2)."""
 
 
-def check_team(config: Config) -> None:
-    """Refuse a team the layout has no room for, with one line naming the setting."""
-    for name, value, top in (
-        ("turtlebots", config.turtlebots, MAX_TURTLEBOTS),
-        ("fetches", config.fetches, MAX_FETCHES),
-        ("humans", config.humans, MAX_HUMANS_PER_FETCH * MAX_FETCHES),
-    ):
-        if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= top:
-            raise ValueError(f"{name} must be an integer from 1 to {top}, got {value!r}")
-    if config.humans > MAX_HUMANS_PER_FETCH * config.fetches:
-        raise ValueError(
-            f"humans must be at most {MAX_HUMANS_PER_FETCH} x fetches "
-            f"(each Fetch's bay has room for {MAX_HUMANS_PER_FETCH} shelves of tools), "
-            f"got humans={config.humans} with fetches={config.fetches}"
-        )
-
-
 def indexed(name: str, i: int, count: int) -> str:
     """``name`` when there is one target, ``name(i)`` when there are several."""
     return name if count == 1 else f"{name}({i})"
@@ -112,7 +93,7 @@ class Team:
 
     @classmethod
     def of(cls, config: Config) -> Team:
-        check_team(config)
+        """The team of a config (which checked its sizes when it was made)."""
         spots = (*config.desk_spots, *EXTRA_DESK_SPOTS)
         return cls(config.turtlebots, config.fetches, config.humans, config.fetch_base, spots)
 
