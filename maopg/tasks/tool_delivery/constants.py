@@ -3,7 +3,9 @@
 Metres in the 7 m x 5 m world. Everything here is plain data, shared by the scene, the options,
 the rules, the scripted policy and the tests, so no module repeats a coordinate or a name. What
 depends on the robots chosen — where the arm stands, where the Turtlebots wait for a pass — is
-in the config (``fetch_base``, ``desk_spots``) instead.
+in the config (``fetch_base``, ``desk_spots``) instead, and what depends on the team's size in
+:mod:`~maopg.tasks.tool_delivery.team`, whose default team reproduces the canonical agents and
+layouts below.
 """
 
 from __future__ import annotations
@@ -20,8 +22,8 @@ NUM_STAGES = 4
 """Stages 0..2 each need tool 0..2; stage 3 is the work after the last tool."""
 
 AGENTS = ("turtlebot0", "turtlebot1", "fetch")
+"""The canonical team's agents (``Team.agents`` at the default sizes)."""
 T0, T1, FETCH = 0, 1, 2
-TURTLEBOTS = (T0, T1)
 
 # Scene names (the Fetch's gripper body is its adapter's, ``ArmAdapter.gripper``).
 TOOL = "tool{}/tool"
@@ -47,7 +49,8 @@ def search_tool(j: int) -> str:
 
 # Observations.
 LOCATIONS = ("workshop", "tool_room", "desk", "moving")
-"""The values of a Turtlebot's one-hot ``location`` field, in order."""
+"""The kinds of a Turtlebot's one-hot ``location`` field, in order (one entry per workshop,
+per bay and per desk of a larger team: ``Team.location``)."""
 MAX_STAGED_SEEN = 2
 """The ``staged`` fields count tools on the desk one-hot as 0, 1, or 2 and more."""
 TURTLEBOT_OBS = ObsLayout.of(
@@ -58,5 +61,6 @@ TURTLEBOT_OBS = ObsLayout.of(
 )
 FETCH_OBS = ObsLayout.of(
     staged=MAX_STAGED_SEEN + 1,  # one-hot count of tools on the desk
-    waiting=len(TURTLEBOTS),  # which Turtlebot is ready for a pass
+    waiting=2,  # which of the two Turtlebots is ready for a pass
 )
+"""The canonical team's layouts (``Team.turtlebot_layout`` / ``fetch_layout`` in general)."""

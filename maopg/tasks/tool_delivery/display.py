@@ -1,4 +1,4 @@
-"""How Tool Delivery's state reads in the video panel."""
+"""How Tool Delivery's state reads in the video panel, at any team size."""
 
 from __future__ import annotations
 
@@ -6,18 +6,24 @@ from collections.abc import Mapping
 from typing import Any
 
 from maopg.tasks.text import format_value
-from maopg.tasks.tool_delivery.constants import AGENTS, TURTLEBOTS
+from maopg.tasks.tool_delivery.constants import NUM_TOOLS
 
 
 def state_lines(state: Mapping[str, Any]) -> list[str]:
-    """Which tool the human needs, where the tools are (from ``ToolDelivery.describe()``)."""
-    stage = int(state["human_stage"])
-    delivered = list(state["delivered"])
-    needs = f"needs tool {stage}" if stage < len(delivered) else "all tools in"
-    carried = list(state["carried"])
-    return [
-        f"human stage {stage} ({needs})",
-        f"staged on desk: {format_value(list(state['staged']))}",
-        *(f"{AGENTS[w]} carries: {format_value(list(carried[w]))}" for w in TURTLEBOTS),
-        "delivered: " + " ".join(f"t{j}={'yes' if d else 'no'}" for j, d in enumerate(delivered)),
-    ]
+    """Which tool each human needs, where the tools are (from ``ToolDelivery.describe()``,
+    whose ``human_stage`` and ``staged`` are one value each for one human / one Fetch and
+    lists of them for several)."""
+    several_humans = isinstance(state["human_stage"], list)
+    stages = list(state["human_stage"]) if several_humans else [state["human_stage"]]
+    staged = list(state["staged"])
+    desks = staged if staged and isinstance(staged[0], list) else [staged]
+    lines = []
+    for h, stage in enumerate(int(s) for s in stages):
+        needs = f"needs tool {stage}" if stage < NUM_TOOLS else "all tools in"
+        lines.append(f"human{f' {h}' if several_humans else ''} stage {stage} ({needs})")
+    for f, desk in enumerate(desks):
+        lines.append(f"staged on desk{f' {f}' if len(desks) > 1 else ''}: {format_value(desk)}")
+    for w, carried in enumerate(state["carried"]):
+        lines.append(f"turtlebot{w} carries: {format_value(list(carried))}")
+    delivered = (f"t{t}={'yes' if d else 'no'}" for t, d in enumerate(state["delivered"]))
+    return [*lines, "delivered: " + " ".join(delivered)]
