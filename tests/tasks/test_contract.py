@@ -1,7 +1,8 @@
 """The contract every registered task meets: build, reset, spaces, a random episode under every
 strategy, determinism, a scripted policy if it declares one, and camera images.
 
-Parametrised over the registry, so a newly registered task is covered without a line here.
+Parametrised over the registry, so a newly registered task is covered without a line here;
+:data:`SETTINGS` adds runs of a task under non-default settings (a bigger team, ...).
 """
 
 from __future__ import annotations
@@ -18,12 +19,22 @@ from maopg.env.video import state_lines
 from maopg.tasks import SceneTask, Task, TaskConfig, task_entry, task_names
 
 TASKS = task_names()
+SETTINGS: dict[str, tuple[dict, ...]] = {
+    "water_filling": ({"vehicles": 2, "drones": 1, "jars": 4},),
+}
+"""Task settings the contract is checked under besides each task's defaults."""
+CASES = [
+    *((task, {}) for task in TASKS),
+    *((task, s) for task, variants in SETTINGS.items() for s in variants),
+]
+CASE_IDS = [task + "".join(f"-{k}={v}" for k, v in s.items()) for task, s in CASES]
 MAX_TICKS = 60
 """Short episodes: the contract is about shapes and invariants, not about solving the task."""
 
 
-def short_env(task: str, strategy: str = "continue", **kwargs):
-    return make_env(task, strategy, overrides={"max_ticks": MAX_TICKS}, **kwargs)
+def short_env(task: str, strategy: str = "continue", settings: dict | None = None, **kwargs):
+    overrides = {"max_ticks": MAX_TICKS, **(settings or {})}
+    return make_env(task, strategy, overrides=overrides, **kwargs)
 
 
 @pytest.mark.parametrize("task", TASKS)
@@ -35,9 +46,9 @@ def test_the_entry_resolves_to_the_task_and_its_config(task: str) -> None:
     assert all(isinstance(seed, int) for seed in entry.grid_seeds) and entry.grid_seeds
 
 
-@pytest.mark.parametrize("task", TASKS)
-def test_spec_spaces_and_the_reset_point_agree(task: str) -> None:
-    env = short_env(task)
+@pytest.mark.parametrize(("task", "settings"), CASES, ids=CASE_IDS)
+def test_spec_spaces_and_the_reset_point_agree(task: str, settings: dict) -> None:
+    env = short_env(task, settings=settings)
     try:
         spec, point = env.spec, env.reset(seed=0)
         assert spec.task == task and spec.num_agents == len(env.task.agent_names) >= 1
@@ -64,9 +75,9 @@ def test_spec_spaces_and_the_reset_point_agree(task: str) -> None:
 
 
 @pytest.mark.parametrize("strategy", [s.value for s in Strategy])
-@pytest.mark.parametrize("task", TASKS)
-def test_a_random_episode_keeps_the_contract(task: str, strategy: str) -> None:
-    env = short_env(task, strategy)
+@pytest.mark.parametrize(("task", "settings"), CASES, ids=CASE_IDS)
+def test_a_random_episode_keeps_the_contract(task: str, settings: dict, strategy: str) -> None:
+    env = short_env(task, strategy, settings)
     seen = []
     try:
         result = run_episode(env, RandomPolicy(env.spec, 0), seed=0, on_step=seen.append)
@@ -89,10 +100,10 @@ def test_a_random_episode_keeps_the_contract(task: str, strategy: str) -> None:
     assert sum(result.rewards) == pytest.approx(result.ret)
 
 
-@pytest.mark.parametrize("task", TASKS)
-def test_the_same_seed_gives_the_same_trajectory(task: str) -> None:
+@pytest.mark.parametrize(("task", "settings"), CASES, ids=CASE_IDS)
+def test_the_same_seed_gives_the_same_trajectory(task: str, settings: dict) -> None:
     def trajectory() -> list[tuple]:
-        env = short_env(task, "any")
+        env = short_env(task, "any", settings)
         points = []
         try:
             run_episode(env, RandomPolicy(env.spec, 3), seed=7, on_step=points.append)
@@ -106,26 +117,28 @@ def test_the_same_seed_gives_the_same_trajectory(task: str) -> None:
     assert trajectory() == trajectory()
 
 
-@pytest.mark.parametrize("task", TASKS)
-def test_a_declared_scripted_policy_plays_options_and_refuses_primitives(task: str) -> None:
+@pytest.mark.parametrize(("task", "settings"), CASES, ids=CASE_IDS)
+def test_a_declared_scripted_policy_plays_options_and_refuses_primitives(
+    task: str, settings: dict
+) -> None:
     factory = task_entry(task).scripted_factory()
     if factory is None:
         pytest.skip(f"{task} declares no scripted policy")
-    env = short_env(task)
+    env = short_env(task, settings=settings)
     try:
         result = run_episode(env, reference_policy("scripted", env), seed=0)
         assert result.ticks <= MAX_TICKS and result.decisions >= 1
         with pytest.raises(ValueError, match="primitive"):
-            factory(task_entry(task).config_class()(primitive=True))
+            factory(task_entry(task).config_class()(primitive=True, **settings))
     finally:
         env.close()
 
 
-@pytest.mark.parametrize("task", TASKS)
-def test_cameras_give_non_constant_images(task: str) -> None:
+@pytest.mark.parametrize(("task", "settings"), CASES, ids=CASE_IDS)
+def test_cameras_give_non_constant_images(task: str, settings: dict) -> None:
     if not issubclass(task_entry(task).task_class(), SceneTask):
         pytest.skip(f"{task} has no scene to render")
-    env = short_env(task, images=True, image_size=32)
+    env = short_env(task, settings=settings, images=True, image_size=32)
     try:
         point = env.reset(seed=0)
         n = env.spec.num_agents
