@@ -8,7 +8,7 @@ stretching the furniture or shipping an MJCF file per size. The arena follows th
 * the floor is a plane geom named ``floor`` centred on the origin; its half sizes are the tile's
   half extent;
 * the outer walls are boxes named ``wall_*`` along the floor's edges;
-* everything else in the world body (furniture, lamps, layout sites) is the tile's content.
+* everything else in the world body (furniture, layout sites) is the tile's content.
 
 The tiled room is one open-plan room: one floor and one set of outer walls (both stretched to
 the whole room), the directional lights once, the cameras moved back so that they frame the
@@ -17,6 +17,12 @@ offset with the name prefix ``t<k>/`` (row-major, tile 0 at the south-west). A c
 own materials (prefixed); the floor's texture repeat grows with the floor, so the checker keeps
 its size. The near clipping plane is given relative to the model's extent, which grows with the
 room, so it is scaled back to keep the robots' cameras clipping where they did in one tile.
+
+The arena's other lights (Water Filling's two ceiling lamps) are not copied: every light is
+shaded per pixel in every camera, and past eight MuJoCo's renderer needs more passes: with
+four tiles' lamps (9 lights) a camera frame on llvmpipe cost several times what it costs
+without them. A tiled room is lit by the directional light and the headlight alone, a little
+darker than one tile under its lamps.
 """
 
 from __future__ import annotations
@@ -91,15 +97,11 @@ def _shell(path: Path, cols: int, rows: int) -> mujoco.MjSpec:
 
 
 def _content(path: Path, parent: mujoco.MjSpec) -> mujoco.MjSpec:
-    """The arena without its shell (floor, walls, directional lights, cameras), ready to attach
-    to ``parent``: no skybox or material left that only the shell used."""
+    """The arena without its shell (floor, walls, cameras) and lights, ready to attach to
+    ``parent``: no skybox or material left that only the shell used."""
     spec = load_spec(path)
     world = spec.worldbody
-    for element in [
-        *(g for g in world.geoms if _is_shell(g)),
-        *(light for light in world.lights if _is_directional(light)),
-        *world.cameras,
-    ]:
+    for element in [*(g for g in world.geoms if _is_shell(g)), *world.lights, *world.cameras]:
         spec.delete(element)
     used = {g.material for g in spec.geoms if g.material}
     for material in list(spec.materials):
@@ -109,7 +111,7 @@ def _content(path: Path, parent: mujoco.MjSpec) -> mujoco.MjSpec:
     for texture in list(spec.textures):
         if texture.name not in textures:
             spec.delete(texture)
-    strip_for_attaching(spec, parent, lights=True)
+    strip_for_attaching(spec, parent, lights=False)
     return spec
 
 
