@@ -101,7 +101,8 @@ def main(argv: list[str] | None = None) -> int:
         print("| " + " | ".join(row) + " |")
     print(
         "\nbuild = `make_env` (scene compile, occupancy grids, one cost-to-go field per jar and "
-        "robot kind); the grid is the vehicles' (0.1 m cells)."
+        "robot kind; the first size also pays scipy's import); the grid is the vehicles' "
+        "(0.1 m cells)."
     )
     return 0
 

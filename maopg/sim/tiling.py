@@ -11,9 +11,10 @@ stretching the furniture or shipping an MJCF file per size. The arena follows th
 * everything else in the world body (furniture, layout sites) is the tile's content.
 
 The tiled room is one open-plan room: one floor and one set of outer walls (both stretched to
-the whole room), the directional lights once, the cameras moved back so that they frame the
-whole room as they framed one tile, and each tile's content copied under a frame at the tile's
-offset with the name prefix ``t<k>/`` (row-major, tile 0 at the south-west). A copy keeps its
+the whole room), the directional lights once, the cameras moved back (away from the origin) so
+that they frame the whole room as they framed one tile, and each tile's content copied under a
+frame at the tile's offset with the name prefix ``t<k>/`` (row-major, tile 0 at the
+south-west). A copy keeps its
 own materials (prefixed); the floor's texture repeat grows with the floor, so the checker keeps
 its size. The near clipping plane is given relative to the model's extent, which grows with the
 room, so it is scaled back to keep the robots' cameras clipping where they did in one tile.
@@ -36,6 +37,9 @@ from maopg.sim.scene import load_spec, strip_for_attaching
 
 FLOOR = "floor"
 WALL_PREFIX = "wall_"
+CAMERA_ASPECT = 4 / 3
+"""Width over height of the pictures the arena's cameras take (a video's 640 x 480 overview):
+a room wider than tall needs the cameras moved back by ``cols / aspect``, not ``cols``."""
 
 
 def tile_prefix(tile: int) -> str:
@@ -90,7 +94,7 @@ def _shell(path: Path, cols: int, rows: int) -> mujoco.MjSpec:
                 wall.pos[axis] += np.sign(wall.pos[axis]) * extra
             else:  # a wall along this axis: stretch it
                 wall.size[axis] += extra
-    scale = max(cols, rows)
+    scale = max(rows, cols / CAMERA_ASPECT, 1.0)
     for camera in world.cameras:
         camera.pos = np.asarray(camera.pos) * scale
     return spec

@@ -84,10 +84,12 @@ def test_the_tiled_room_encloses_reachable_jars() -> None:
         for c, handle in enumerate(task.jars):  # the jar props stand on the layout's sites
             body = model.geom_bodyid[handle.geom_id]
             assert np.allclose(task.scene.data.xpos[body][:2], task.jar_xy[c])
+        config = task.config
         for agent, planner in enumerate(task.planners):  # every jar reachable from every start
             start = planner.grid.cell(task.planar_position(agent))
+            reach = config.drone_standoff if task.team.is_drone(agent) else config.vehicle_reach
             for c in range(len(task.jars)):
-                field = planner.field(task.jar_xy[c], task._reach[agent])
+                field = planner.field(task.jar_xy[c], reach)
                 assert np.isfinite(field[start]), (agent, c)
     finally:
         task.close()
