@@ -327,19 +327,45 @@ def _allowed_moves(blocked: np.ndarray) -> list[tuple[int, int, float, np.ndarra
     return out
 
 
+RELAXATION_CELLS = 20_000
+"""Grids up to this many cells (a 14 m square room at 0.1 m) get their cost-to-go fields by
+relaxation (:func:`relaxed_cost_to_go`), bigger ones by Dijkstra (:func:`dijkstra_cost_to_go`)."""
+
+
 def cost_to_go(blocked: np.ndarray, seeds: np.ndarray) -> np.ndarray:
     """Shortest 8-connected path length (in cells) from every free cell to any seed cell.
 
     Diagonal moves need both orthogonal neighbours free (no corner cutting), as in
-    :class:`GridPlanner`. Computed by scipy's multi-source Dijkstra over the grid's legal moves
-    (every edge points from a cell to the neighbour it may move to, so the distance from the
-    seeds over the reversed graph is the cost to go). Its sums are the left folds of the moves
-    from the seed, as a Bellman-Ford relaxation of the grid makes them, so the field is the
-    same to the last bit; Dijkstra's cost grows with the cells, the relaxation's with cells
-    times the longest path, which made a 20 m room take seconds per goal. Blocked or
-    unreachable cells are ``inf``.
+    :class:`GridPlanner`. Blocked or unreachable cells are ``inf``. Both methods give the same
+    field to the bit (each cell's value is the least fixed point of ``min(neighbour + move)``,
+    summed outward from the seeds, whatever order finds it). The relaxation's cost grows with
+    the cells times the longest path, Dijkstra's with the cells, after scipy's import (which a
+    small room is spared); ``python bench/wf_teams.py`` times both per room size.
     """
-    from scipy.sparse import coo_matrix  # lazily: only tasks that plan pay for the import
+    if blocked.size <= RELAXATION_CELLS:
+        return relaxed_cost_to_go(blocked, seeds)
+    return dijkstra_cost_to_go(blocked, seeds)
+
+
+def relaxed_cost_to_go(blocked: np.ndarray, seeds: np.ndarray) -> np.ndarray:
+    """:func:`cost_to_go` by Bellman-Ford relaxation over whole-array shifts: about a hundred
+    numpy sweeps on a room-sized grid."""
+    field = np.where(seeds & ~blocked, 0.0, np.inf)
+    allowed = _allowed_moves(blocked)
+    while True:
+        before = field
+        for di, dj, step, ok in allowed:
+            cand = _shifted(field, di, dj, np.inf) + step
+            field = np.where(ok & (cand < field), cand, field)
+        if np.array_equal(field, before):
+            return field
+
+
+def dijkstra_cost_to_go(blocked: np.ndarray, seeds: np.ndarray) -> np.ndarray:
+    """:func:`cost_to_go` by scipy's multi-source Dijkstra over the grid's legal moves, each
+    edge reversed (from the neighbour a cell may move to back to the cell), so the distance
+    from the seeds is the cost to go."""
+    from scipy.sparse import coo_matrix  # lazily: only big rooms pay for the import
     from scipy.sparse.csgraph import dijkstra
 
     ny, nx = blocked.shape
@@ -347,7 +373,7 @@ def cost_to_go(blocked: np.ndarray, seeds: np.ndarray) -> np.ndarray:
     heads, tails, lengths = [], [], []
     for di, dj, step, ok in _allowed_moves(blocked):
         i, j = np.nonzero(ok)
-        heads.append(ids[i + di, j + dj])  # reversed: from the neighbour back to the cell
+        heads.append(ids[i + di, j + dj])
         tails.append(ids[i, j])
         lengths.append(np.full(i.size, step))
     graph = coo_matrix(

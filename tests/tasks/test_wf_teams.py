@@ -17,6 +17,7 @@ import pytest
 from maopg.env import make_env
 from maopg.env.rollout import RandomPolicy, reference_policy, run_episode
 from maopg.options.base import Execution
+from maopg.sim.planning import RELAXATION_CELLS, dijkstra_cost_to_go, relaxed_cost_to_go
 from maopg.tasks import load, make_config
 from maopg.tasks.water_filling.display import state_lines
 from maopg.tasks.water_filling.scene import arena_path, arena_source, read_arena
@@ -91,6 +92,23 @@ def test_the_tiled_room_encloses_reachable_jars() -> None:
             for c in range(len(task.jars)):
                 field = planner.field(task.jar_xy[c], reach)
                 assert np.isfinite(field[start]), (agent, c)
+    finally:
+        task.close()
+
+
+def test_both_cost_to_go_methods_give_the_same_field_in_a_tiled_room() -> None:
+    task = load("water_filling", settings((2, 1, 4)))
+    try:
+        grid = task.planners[0].grid
+        assert grid.blocked.size > RELAXATION_CELLS  # the task used Dijkstra
+        ny, nx = grid.blocked.shape
+        xs = grid.origin[0] + grid.resolution * np.arange(nx)
+        ys = grid.origin[1] + grid.resolution * np.arange(ny)
+        goal = task.jar_xy[3]
+        seeds = np.hypot(xs[None, :] - goal[0], ys[:, None] - goal[1]) <= 0.8
+        relaxed = relaxed_cost_to_go(grid.blocked, seeds)
+        assert np.isfinite(relaxed).sum() > grid.blocked.size / 2
+        assert np.array_equal(relaxed, dijkstra_cost_to_go(grid.blocked, seeds))
     finally:
         task.close()
 
