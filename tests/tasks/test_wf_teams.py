@@ -163,7 +163,9 @@ def test_the_scripted_policy_splits_the_jars() -> None:
     starts = np.array([[0.0, 0.0], [10.0, 0.0]])
     jars = np.array([[1.0, 0.0], [9.0, 0.0], [2.0, 0.0], [3.0, 0.0]])
     shares = split_jars(starts, jars)
-    assert [s.tolist() for s in shares] == [[0, 2], [1, 3]]  # nearest first, at most 2 each
+    assert [s.tolist() for s in shares] == [[0, 2], [1, 3]]  # in turns: 1 is far from 0's
+    three = split_jars(np.array([[0.0, 0.0], [0.5, 0.0], [10.0, 0.0]]), jars)
+    assert [s.tolist() for s in three] == [[0, 3], [2], [1]]  # shares differ by one at most
     assert [s.tolist() for s in split_jars(starts[:1], jars)] == [[0, 1, 2, 3]]  # one: all
     assert [s.tolist() for s in split_jars(starts, jars[:1])] == [[0], [0]]  # none left: all
     env = make_env("water_filling", overrides=settings((4, 4, 8)))

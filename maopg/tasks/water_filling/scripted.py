@@ -28,7 +28,7 @@ def scripted_policy(config: Config) -> ScriptedPolicy:
     line, padded for detours).
 
     A team splits the jars once (:func:`split_jars`): each robot looks only among its own share,
-    the jars nearest its start, so the robots of a kind spread over the room instead of all
+    jars near its start, so the robots of a kind spread over the room instead of all
     chasing the jar that looks worst. With one robot of a kind its share is every jar, and the
     policy is the one-vehicle, one-drone policy it always was.
     """
@@ -70,18 +70,16 @@ def scripted_policy(config: Config) -> ScriptedPolicy:
 
 
 def split_jars(starts: np.ndarray, jars: np.ndarray) -> list[np.ndarray]:
-    """Each robot's share of the jars (ascending jar ids): jars go to the nearest robot whose
-    share is not yet full (``ceil(jars / robots)``), nearest pairs first, so shares differ by
-    at most one jar. A robot left without a jar (more robots than jars) shares them all."""
-    robots, count = len(starts), len(jars)
-    room = -(-count // robots)
+    """Each robot's share of the jars (ascending jar ids): in rounds, each robot in turn takes
+    the unclaimed jar nearest its start, so shares differ by at most one jar. A robot left
+    without a jar (more robots than jars) shares them all."""
     distance = np.hypot(*(starts[:, None, :] - jars[None, :, :]).transpose(2, 0, 1))
-    owner = np.full(count, -1)
-    load = np.zeros(robots, dtype=int)
-    for flat in np.argsort(distance, axis=None, kind="stable"):
-        robot, jar = divmod(int(flat), count)
-        if owner[jar] < 0 and load[robot] < room:
-            owner[jar] = robot
-            load[robot] += 1
-    everything = np.arange(count)
-    return [np.flatnonzero(owner == r) if load[r] else everything for r in range(robots)]
+    owner = np.full(len(jars), -1)
+    for turn in range(len(jars)):
+        robot = turn % len(starts)
+        owner[np.argmin(np.where(owner < 0, distance[robot], np.inf))] = robot
+    everything = np.arange(len(jars))
+    return [
+        mine if (mine := np.flatnonzero(owner == r)).size else everything
+        for r in range(len(starts))
+    ]
