@@ -12,6 +12,11 @@ One frame per **tick** (low-level step), composed as::
     | camera (upscaled observation)  ...           |
     +----------------------------------------------+
 
+Up to three robots' tiles (256 px) sit in one row under the overview. A bigger team's tiles are
+laid out in rows no wider than the overview and the panel (:func:`tile_grid`): 256 px tiles in
+up to two rows, then smaller ones (192, 128, 96, 64 px) so that they still fit two rows, and more
+rows only past 26 robots; their captions take two lines (agent, option), cut to the tile's width.
+
 A task without a scene films what its :meth:`~maopg.tasks.base.Task.video_frame` draws in the
 overview's place (nothing, when it draws nothing) and has a caption row without camera tiles:
 every task gets a video.
@@ -56,6 +61,14 @@ CAPTION = 28
 GAP = 8
 BLOCK = 16
 """H.264 encodes 16x16 macroblocks; frames are padded to multiples so the writer never resizes."""
+ROW_WIDTH = OVERVIEW_SIZE[1] + PANEL_WIDTH
+"""The widest a row of robot tiles gets: the overview and the panel side by side."""
+GRID_TILES = (TILE, 192, 128, 96, 64)
+"""Tile sides tried in turn for a team whose tiles do not fit one row."""
+GRID_ROWS = 2
+"""Rows a team's tiles may take before the tiles shrink."""
+GRID_CAPTION = 44
+"""Height of a two-line caption (agent, then option) over a tile of the grid."""
 
 VIDEO_MAX_TICKS = 1000
 """Ticks filmed at most (about 4 minutes at the default 4 fps; ~2.5 minutes to render on Water
@@ -130,6 +143,53 @@ class Overlay:
     """Highlighted under the tick counter (the last frame of a cut video says so)."""
 
 
+@dataclass(frozen=True)
+class TileGrid:
+    """Where the robots' captions and camera tiles go (:func:`tile_grid`)."""
+
+    side: int
+    """Width of a robot's cell, and of its camera tile."""
+    tile: int
+    """Height of a camera tile (0: a task without cameras has captions only)."""
+    caption: int
+    cols: int
+    rows: int
+    two_lines: bool
+    """Captions as two lines (agent, option) instead of ``agent: option``."""
+
+    @property
+    def row_width(self) -> int:
+        return self.cols * self.side + (self.cols - 1) * GAP
+
+    @property
+    def height(self) -> int:
+        """From the top of the first caption to the bottom of the last row."""
+        return self.rows * (self.caption + self.tile) + (self.rows - 1) * GAP
+
+    def cell(self, agent: int, width: int) -> tuple[int, int]:
+        """Top-left ``(x, y)`` of an agent's caption in a frame ``width`` wide; rows are centred
+        as a block, filled left to right, the last one possibly short."""
+        row, col = divmod(agent, self.cols)
+        x0 = (width - self.row_width) // 2
+        y = OVERVIEW_SIZE[0] + GAP + row * (self.caption + self.tile + GAP)
+        return x0 + col * (self.side + GAP), y
+
+
+def tile_grid(agents: int, cameras: bool) -> TileGrid:
+    """The layout of ``agents`` robots' tiles (see the module docstring): one row while it fits
+    :data:`ROW_WIDTH` (the layout of up to three robots), else the largest of
+    :data:`GRID_TILES` whose columns fit the team in :data:`GRID_ROWS` rows (the smallest, in
+    as many rows as it takes, past that)."""
+    if agents * TILE + (agents - 1) * GAP <= ROW_WIDTH:
+        return TileGrid(TILE, TILE if cameras else 0, CAPTION, agents, 1, False)
+    for side in GRID_TILES:
+        cols = (ROW_WIDTH + GAP) // (side + GAP)
+        rows = -(-agents // cols)
+        if rows <= GRID_ROWS:
+            break
+    return TileGrid(side, side if cameras else 0, GRID_CAPTION, cols, rows, True)
+
+
 class FrameComposer:
     """Renders and composes one video frame of a task (see the module docstring)."""
 
@@ -151,9 +211,9 @@ class FrameComposer:
         self.scene = isinstance(task, SceneTask)
         n = len(self.agent_names)
         oh, ow = OVERVIEW_SIZE
-        tile = TILE if self.scene else 0
-        self.width = _round_up(max(ow + PANEL_WIDTH, n * TILE + (n - 1) * GAP), BLOCK)
-        self.height = _round_up(oh + GAP + CAPTION + tile, BLOCK)
+        self.grid = grid = tile_grid(n, self.scene)
+        self.width = _round_up(max(ROW_WIDTH, grid.row_width), BLOCK)
+        self.height = _round_up(oh + GAP + grid.height, BLOCK)
         if isinstance(task, SceneTask):
             px = camera_px or task.config.image_size
             self._overview = VideoRenderer(task.scene.model, oh, ow, camera="overview")
@@ -191,19 +251,30 @@ class FrameComposer:
         if self.scene:
             self._cameras.render(self._data, self._camera_ids, out=self._camera_buf)
 
-        n = len(self.agent_names)
-        row_width = n * TILE + (n - 1) * GAP
-        x0 = (self.width - row_width) // 2
-        y_caption = OVERVIEW_SIZE[0] + GAP
+        grid = self.grid
         for i, name in enumerate(self.agent_names):
-            x = x0 + i * (TILE + GAP)
+            x, y = grid.cell(i, self.width)
             colour = HIGHLIGHT if overlay.started[i] else TEXT
-            caption = f"{name}: {overlay.options[i]}"
-            draw.text((x + 2, y_caption + 4), caption, fill=colour, font=self._small)
+            if grid.two_lines:
+                for k, text in enumerate((name, str(overlay.options[i]))):
+                    text = self._fit(draw, text, grid.side - 4)
+                    draw.text((x + 2, y + 2 + 20 * k), text, fill=colour, font=self._small)
+            else:
+                caption = f"{name}: {overlay.options[i]}"
+                draw.text((x + 2, y + 4), caption, fill=colour, font=self._small)
             if self.scene:
-                tile = Image.fromarray(self._camera_buf[i]).resize((TILE, TILE), Image.NEAREST)
-                canvas.paste(tile, (x, y_caption + CAPTION))
+                side = grid.side
+                tile = Image.fromarray(self._camera_buf[i]).resize((side, side), Image.NEAREST)
+                canvas.paste(tile, (x, y + grid.caption))
         return np.asarray(canvas)
+
+    def _fit(self, draw: ImageDraw.ImageDraw, text: str, width: int) -> str:
+        """``text``, cut with an ellipsis to ``width`` pixels in the caption font."""
+        if draw.textlength(text, font=self._small) <= width:
+            return text
+        while text and draw.textlength(f"{text}…", font=self._small) > width:
+            text = text[:-1]
+        return f"{text}…"
 
     def _draw_panel(self, draw: ImageDraw.ImageDraw, overlay: Overlay) -> None:
         x, y = OVERVIEW_SIZE[1] + 12, 12
@@ -219,6 +290,8 @@ class FrameComposer:
             y += 26
         y += 8
         for line in overlay.state:
+            if y > OVERVIEW_SIZE[0] - 21:
+                return  # the panel is full (a task with very many state lines)
             draw.text((x, y), line, fill=TEXT, font=self._small)
             y += 21
         y += 8

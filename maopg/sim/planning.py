@@ -299,8 +299,8 @@ def path_length(start: Sequence[float], waypoints: Sequence[Sequence[float]]) ->
     return float(sum(math.dist(a, b) for a, b in itertools.pairwise(pts)))
 
 
-#: (grid fingerprint, goal, radius) -> (cost-to-go field, downhill table); read-only once built.
-_FIELDS: dict[tuple, tuple[np.ndarray, dict]] = {}
+#: (grid fingerprint, goal, radius) -> (cost-to-go field, downhill moves); read-only once built.
+_FIELDS: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
 _PATH_CACHE_SIZE = 50_000
 
 
@@ -327,14 +327,29 @@ def _allowed_moves(blocked: np.ndarray) -> list[tuple[int, int, float, np.ndarra
     return out
 
 
+RELAXATION_CELLS = 20_000
+"""Grids up to this many cells (a 14 m square room at 0.1 m) get their cost-to-go fields by
+relaxation (:func:`relaxed_cost_to_go`), bigger ones by Dijkstra (:func:`dijkstra_cost_to_go`)."""
+
+
 def cost_to_go(blocked: np.ndarray, seeds: np.ndarray) -> np.ndarray:
     """Shortest 8-connected path length (in cells) from every free cell to any seed cell.
 
     Diagonal moves need both orthogonal neighbours free (no corner cutting), as in
-    :class:`GridPlanner`. Computed by Bellman-Ford relaxation over whole-array shifts:
-    exact, and about a hundred numpy sweeps on a room-sized grid. Blocked or unreachable
-    cells are ``inf``.
+    :class:`GridPlanner`. Blocked or unreachable cells are ``inf``. Both methods give the same
+    field to the bit (each cell's value is the least fixed point of ``min(neighbour + move)``,
+    summed outward from the seeds, whatever order finds it). The relaxation's cost grows with
+    the cells times the longest path, Dijkstra's with the cells, after scipy's import (which a
+    small room is spared); ``python bench/wf_teams.py`` times both per room size.
     """
+    if blocked.size <= RELAXATION_CELLS:
+        return relaxed_cost_to_go(blocked, seeds)
+    return dijkstra_cost_to_go(blocked, seeds)
+
+
+def relaxed_cost_to_go(blocked: np.ndarray, seeds: np.ndarray) -> np.ndarray:
+    """:func:`cost_to_go` by Bellman-Ford relaxation over whole-array shifts: about a hundred
+    numpy sweeps on a room-sized grid."""
     field = np.where(seeds & ~blocked, 0.0, np.inf)
     allowed = _allowed_moves(blocked)
     while True:
@@ -346,9 +361,35 @@ def cost_to_go(blocked: np.ndarray, seeds: np.ndarray) -> np.ndarray:
             return field
 
 
-def _downhill(field: np.ndarray, blocked: np.ndarray) -> dict[tuple[int, int], tuple[int, int]]:
-    """The best legal neighbour of every reachable cell outside the goal disc (``field > 0``):
-    following it from any cell traces a shortest grid path into the disc."""
+def dijkstra_cost_to_go(blocked: np.ndarray, seeds: np.ndarray) -> np.ndarray:
+    """:func:`cost_to_go` by scipy's multi-source Dijkstra over the grid's legal moves, each
+    edge reversed (from the neighbour a cell may move to back to the cell), so the distance
+    from the seeds is the cost to go."""
+    from scipy.sparse import coo_matrix  # lazily: only big rooms pay for the import
+    from scipy.sparse.csgraph import dijkstra
+
+    ny, nx = blocked.shape
+    ids = np.arange(ny * nx).reshape(ny, nx)
+    heads, tails, lengths = [], [], []
+    for di, dj, step, ok in _allowed_moves(blocked):
+        i, j = np.nonzero(ok)
+        heads.append(ids[i + di, j + dj])
+        tails.append(ids[i, j])
+        lengths.append(np.full(i.size, step))
+    graph = coo_matrix(
+        (np.concatenate(lengths), (np.concatenate(heads), np.concatenate(tails))),
+        shape=(ny * nx, ny * nx),
+    ).tocsr()
+    sources = np.flatnonzero((seeds & ~blocked).ravel())
+    if sources.size == 0:
+        return np.full(blocked.shape, np.inf)
+    return dijkstra(graph, directed=True, indices=sources, min_only=True).reshape(ny, nx)
+
+
+def _downhill(field: np.ndarray, blocked: np.ndarray) -> np.ndarray:
+    """Per cell, the index into ``_NEIGHBOURS`` of its best legal neighbour, for every reachable
+    cell outside the goal disc (``field > 0``; -1 elsewhere): following it from any cell traces
+    a shortest grid path into the disc."""
     best = np.full(field.shape, np.inf)
     move = np.zeros(field.shape, dtype=np.int8)
     for k, (di, dj, step, ok) in enumerate(_allowed_moves(blocked)):
@@ -356,11 +397,8 @@ def _downhill(field: np.ndarray, blocked: np.ndarray) -> dict[tuple[int, int], t
         better = cand < best
         best[better] = cand[better]
         move[better] = k
-    table = {}
-    for i, j in zip(*np.nonzero(np.isfinite(field) & (field > 0.0)), strict=True):
-        di, dj, _ = _NEIGHBOURS[move[i, j]]
-        table[(int(i), int(j))] = (int(i) + di, int(j) + dj)
-    return table
+    move[~(np.isfinite(field) & (field > 0.0))] = -1
+    return move
 
 
 class GoalFieldPlanner:
@@ -380,8 +418,8 @@ class GoalFieldPlanner:
         """The (cached) cost-to-go field of a goal disc, in cells."""
         return self._tables(goal, radius)[0]
 
-    def _tables(self, goal: Sequence[float], radius: float) -> tuple[np.ndarray, dict]:
-        """(cost-to-go field, downhill successor of every reachable cell outside the disc)."""
+    def _tables(self, goal: Sequence[float], radius: float) -> tuple[np.ndarray, np.ndarray]:
+        """(cost-to-go field, downhill move of every reachable cell outside the disc)."""
         key = (*self._key, round(float(goal[0]), 6), round(float(goal[1]), 6), float(radius))
         tables = _FIELDS.get(key)
         if tables is None:
@@ -395,8 +433,9 @@ class GoalFieldPlanner:
                     f"no free cell within {radius} m of goal {tuple(goal)}: increase the radius"
                 )
             field = cost_to_go(grid.blocked, seeds)
-            field.flags.writeable = False
-            tables = _FIELDS[key] = (field, _downhill(field, grid.blocked))
+            downhill = _downhill(field, grid.blocked)
+            field.flags.writeable = downhill.flags.writeable = False
+            tables = _FIELDS[key] = (field, downhill)
         return tables
 
     def plan(
@@ -434,12 +473,13 @@ class GoalFieldPlanner:
         centers = np.asarray(self.grid.origin) + self.grid.resolution * reachable[:, ::-1]
         return centers[np.argmin(np.hypot(*(centers - np.asarray(start[:2])).T))]
 
-    def _descend(self, cell: tuple[int, int], field: np.ndarray, downhill: dict):
+    def _descend(self, cell: tuple[int, int], field: np.ndarray, downhill: np.ndarray):
         """Follow the field downhill from ``cell`` (a reachable one) to the goal disc, then
         shortcut."""
         cells = [cell]
-        while cell in downhill:
-            cell = downhill[cell]
+        while (k := downhill[cell]) >= 0:
+            di, dj, _ = _NEIGHBOURS[k]
+            cell = (cell[0] + di, cell[1] + dj)
             cells.append(cell)
         points = np.array([self.grid.center(c) for c in cells])
         if len(points) == 1:  # already in the goal disc: the route is the start cell's centre

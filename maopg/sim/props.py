@@ -57,13 +57,14 @@ class JarHandle:
             self.data.geom_xpos[g] = self.data.xpos[b] + rot @ self.model.geom_pos[g]
 
 
-def layout_sites(arena: str | Path, prefix: str = "") -> dict[str, np.ndarray]:
+def layout_sites(arena: str | Path | mujoco.MjModel, prefix: str = "") -> dict[str, np.ndarray]:
     """World positions of an arena's sites whose names start with ``prefix`` (e.g. ``jar_``).
 
     Arenas mark jar stands and spawn points with sites, so tasks read the layout from the MJCF
-    instead of repeating coordinates.
+    instead of repeating coordinates. ``arena`` is the file, or an arena compiled already (a
+    room generated in code).
     """
-    model = mujoco.MjModel.from_xml_path(str(arena))
+    model = arena if isinstance(arena, mujoco.MjModel) else mujoco.MjModel.from_xml_path(str(arena))
     data = mujoco.MjData(model)
     mujoco.mj_kinematics(model, data)
     return {

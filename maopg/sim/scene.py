@@ -139,19 +139,22 @@ class SceneBuilder:
 
     def __init__(
         self,
-        arena: str | Path,
+        arena: str | Path | mujoco.MjSpec,
         *,
         timestep: float,
         render_size: int = 64,
         video_size: tuple[int, int] = (480, 640),
     ) -> None:
+        """``arena``: an MJCF file, or a spec made in code (a generated room); the builder
+        adds to the spec it is given."""
         self.arena = arena
-        self.spec = load_spec(arena)
+        self.spec = arena if isinstance(arena, mujoco.MjSpec) else load_spec(arena)
         self.spec.option.timestep = timestep
         # Offscreen buffer large enough for every renderer the scene will be asked for.
         self.spec.visual.global_.offwidth = max(render_size, video_size[1])
         self.spec.visual.global_.offheight = max(render_size, video_size[0])
-        self._files: list[str] = [str(arena)]
+        name = f"<generated arena {arena.modelname!r}>" if arena is self.spec else str(arena)
+        self._files: list[str] = [name]
         self._robots: list[tuple[str, RobotSpec]] = []
         self._welds: list[tuple[str, str | None, bool]] = []
 

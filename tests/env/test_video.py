@@ -11,17 +11,21 @@ import pytest
 from maopg.env import make_env
 from maopg.env.rollout import RandomPolicy, run_episode
 from maopg.env.video import (
+    BACKGROUND,
     BLOCK,
     CAPTION,
     GAP,
     HIGHLIGHT,
     OVERVIEW_SIZE,
+    ROW_WIDTH,
+    TILE,
     FrameComposer,
     Overlay,
     generic_state_lines,
     observation_lines,
     record_episode,
     state_lines,
+    tile_grid,
 )
 from maopg.tasks import ObsLayout
 
@@ -231,3 +235,43 @@ def test_recording_does_not_change_the_episode(tmp_path):
         env.close()
     assert (video.ret, video.ticks, video.solved) == (plain.ret, plain.ticks, plain.solved)
     assert video.frames == plain.ticks + 1
+
+
+def test_a_big_team_gets_rows_of_smaller_tiles_each_with_its_caption():
+    """Eight robots: two rows of 192 px tiles within the overview and panel's width; every
+    caption drawn (highlighted when its robot starts an option) and every camera rendered."""
+    overrides = {"vehicles": 4, "drones": 4, "jars": 8, "max_ticks": 6}
+    env = make_env("water_filling", "continue", overrides=overrides)
+    names = env.spec.agent_names
+    try:
+        env.reset(seed=0)
+        composer = FrameComposer(env.task, names, title="t", max_ticks=6)
+        try:
+            base = dict(tick=0, ret=0.0, reward=None, options=["NavToFill(7)"] * 8, state=["s"])
+            frame = composer.compose(Overlay(started=[True] * 8, **base))
+            plain = composer.compose(Overlay(started=[False] * 8, **base))
+        finally:
+            composer.close()
+    finally:
+        env.close()
+    grid = composer.grid
+    assert (grid.side, grid.cols, grid.rows) == (192, 4, 2)
+    height, width, _ = frame.shape
+    assert width == ROW_WIDTH and height % BLOCK == 0 and width % BLOCK == 0
+    assert height <= OVERVIEW_SIZE[0] + 2 * (TILE + CAPTION + 2 * GAP)
+    for i in range(len(names)):
+        x, y = grid.cell(i, width)
+        caption = frame[y : y + grid.caption, x : x + grid.side]
+        assert np.all(caption == HIGHLIGHT, axis=-1).sum() > 20, names[i]
+        assert not np.all(plain[y : y + grid.caption, x : x + grid.side] == HIGHLIGHT, -1).any()
+        tile = frame[y + grid.caption : y + grid.caption + grid.tile, x : x + grid.side]
+        assert tile.shape == (192, 192, 3) and tile.std() > 5, names[i]
+    below = frame[y + grid.caption + grid.tile :]
+    assert np.all(below == BACKGROUND), "nothing is drawn past the last row"
+
+
+def test_tile_rows_stay_within_the_frame_width():
+    for agents in (1, 3, 4, 7, 9, 16, 30):
+        grid = tile_grid(agents, cameras=True)
+        assert grid.row_width <= ROW_WIDTH and grid.cols * grid.rows >= agents
+        assert (grid.rows == 1) == (agents <= 3) and (grid.side == TILE) == (agents <= 6)

@@ -23,6 +23,7 @@ MAX_TICKS = 60
 """Short episodes: the contract is about shapes and invariants, not about solving the task."""
 SETTINGS: dict[str, list[dict]] = {
     "tool_delivery": [{"turtlebots": 6, "fetches": 2, "humans": 3}],
+    "water_filling": [{"vehicles": 2, "drones": 1, "jars": 4}],
 }
 """Task settings the contract runs at besides each task's defaults."""
 CASES = [pytest.param(task, {}, id=task) for task in TASKS] + [

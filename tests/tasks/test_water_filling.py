@@ -322,5 +322,5 @@ def test_bad_option_ids_raise_value_errors_naming_the_agent() -> None:
     with pytest.raises(ValueError, match="'drone' must choose"):
         env.step([0, -1])
     with pytest.raises(ValueError, match="unknown config key"):
-        make_env("water_filling", overrides={"jars": 4})
+        make_env("water_filling", overrides={"jugs": 4})
     env.close()

@@ -17,6 +17,14 @@ class Config(TaskConfig):
     timestep: float = 0.005
     """Physics step (s); the drone's 50 Hz controller runs every 4 steps (tuned for <= 5 ms)."""
     arena: str = "arenas/water_filling.xml"
+    # Team size (maopg.tasks.water_filling.team): the room is tiled from ``arena`` to fit them;
+    # ``vehicle_start`` / ``drone_start`` apply only to a team with one vehicle / one drone.
+    vehicles: int = 1
+    """Ground vehicles (agents ``vehicle``, or ``vehicle0``.. when several); at least 1."""
+    drones: int = 1
+    """Drones (agents ``drone``, or ``drone0``.. when several); at least 1."""
+    jars: int = 3
+    """Jars to keep filled; at least 1."""
     vehicle_robot: str = "vehicle"
     drone_robot: str = "drone"
     vehicle_start: tuple[float, float] | None = None

@@ -5,10 +5,12 @@ from __future__ import annotations
 
 from maopg.options.moves import EAST, NORTH, SOUTH, WEST
 from maopg.tasks.layout import ObsLayout
+from maopg.tasks.water_filling.config import Config
 
-AGENTS = ("vehicle", "drone")
 VEHICLE, DRONE = 0, 1
-NUM_JARS = 3
+"""Agent indices in the default team (one vehicle, one drone; vehicles always come first)."""
+NUM_JARS = Config.jars
+"""Jars of the default task."""
 
 #: Compass moves in the top view, as both robots name them: Up = north (+y), Right = east (+x).
 MOVES = (("Up", NORTH), ("Down", SOUTH), ("Left", WEST), ("Right", EAST))
@@ -28,12 +30,18 @@ def nav_to_fill(jar: int) -> str:
     return f"NavToFill({jar})"
 
 
-OBS = ObsLayout.of(
-    known_levels=NUM_JARS,  # last level any robot saw, per jar
-    elapsed=NUM_JARS,  # ticks since each was seen, divided by max_ticks
-    position=2,  # own planar position divided by the room's half extent
-)
-"""Both robots' observation vector (the shared knowledge plus where the robot is)."""
+def obs_layout(jars: int) -> ObsLayout:
+    """Every robot's observation vector with ``jars`` jars: the shared knowledge plus where the
+    robot is."""
+    return ObsLayout.of(
+        known_levels=jars,  # last level any robot saw, per jar
+        elapsed=jars,  # ticks since each was seen, divided by max_ticks
+        position=2,  # own planar position divided by the room's half extent
+    )
+
+
+OBS = obs_layout(NUM_JARS)
+"""The default task's observation vector."""
 
 FACE_CREEP = 0.04
 """How far (m) the vehicle creeps toward a jar per tick to turn its heading onto it."""

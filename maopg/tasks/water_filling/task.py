@@ -19,6 +19,11 @@ physics, in this order:
 
 The liquid geom of every jar is resized whenever its level changes, so every render shows it.
 
+The team and the number of jars are settings (``vehicles``, ``drones``, ``jars``:
+:mod:`~.team`); a bigger team plays in a room tiled from the arena (:mod:`~.scene`), every
+vehicle can fill, the knowledge is shared by all, and fills requested by several vehicles on one
+tick are applied in agent order.
+
 Moves go one tick toward the point one tick of travel away (a wall or furniture in the way
 simply stops the robot). NavTo plans a collision-free path once at its start
 (:class:`~maopg.sim.planning.GoalFieldPlanner`: the vehicle over the floor-level obstacle grid,
@@ -27,10 +32,10 @@ controller; it ends when the robot is within reach of the jar (``vehicle_reach``
 ``drone_standoff`` < 1 m, so the level is observed on that tick), or after the path's travel
 time plus ``nav_slack_ticks``.
 
-Observation vector of each robot (float32, :data:`~.constants.OBS`): last-known level of the 3
-jars, ticks since each was last observed divided by ``max_ticks``, and the robot's own planar
-position divided by the room's half extent (so state-vector mode is learnable without
-normalisation).
+Observation vector of each robot (float32, :func:`~.constants.obs_layout`): last-known level of
+every jar (3 by default), ticks since each was last observed divided by ``max_ticks``, and the
+robot's own planar position divided by the room's half extent (so state-vector mode is learnable
+without normalisation).
 """
 
 from __future__ import annotations
@@ -49,22 +54,15 @@ from maopg.sim.robots.base import wrap_angle
 from maopg.tasks.base import SceneTask
 from maopg.tasks.layout import ObsLayout
 from maopg.tasks.water_filling.config import Config
-from maopg.tasks.water_filling.constants import (
-    AGENTS,
-    DRONE,
-    FACE_CREEP,
-    GROUND_BAND,
-    NUM_JARS,
-    OBS,
-    VEHICLE,
-)
+from maopg.tasks.water_filling.constants import FACE_CREEP, GROUND_BAND, obs_layout
 from maopg.tasks.water_filling.options import option_sets
 from maopg.tasks.water_filling.scene import build_scene, read_arena
+from maopg.tasks.water_filling.team import Team
 from maopg.tasks.water_filling.water import WaterLevels, jar_reward
 
 
 class WaterFilling(SceneTask):
-    """Vehicle and drone keep three jars filled (see the module docstring).
+    """Vehicles and drones keep the jars filled (see the module docstring).
 
     Implements :class:`~maopg.tasks.water_filling.options.JarRules`, the interface its options
     act through.
@@ -76,62 +74,70 @@ class WaterFilling(SceneTask):
     def __init__(self, config: Config | None = None) -> None:
         self.config = config = config or Config()
         self.tick_seconds = config.tick_seconds
+        self.team = team = Team.of(config)
         arena = read_arena(config)
         self.jar_xy = arena.jar_xy
         self._jar_xy = [tuple(float(v) for v in p) for p in self.jar_xy]  # fast Python access
         self.half_extent = arena.half_extent
         self.scene = build_scene(config, arena)
-        self.vehicle = self.scene.robots[AGENTS[VEHICLE]]
-        self.drone = self.scene.robots[AGENTS[DRONE]]
-        self.agent_robots = (self.vehicle, self.drone)
+        self.agent_robots = tuple(self.scene.robots[name] for name in team.names)
+        drones = team.drone_agents
+        self._drones = tuple(self.agent_robots[a] for a in drones)
+        self.vehicle, self.drone = self.agent_robots[0], self._drones[0]  # the first of each
         self._bodies = [r.root_body_id for r in self.agent_robots]
         self.jars = [
-            JarHandle(self.scene.model, f"jar{c}", self.scene.data) for c in range(NUM_JARS)
+            JarHandle(self.scene.model, f"jar{c}", self.scene.data) for c in range(team.jars)
         ]
-        self._step_length = (
-            self.vehicle.max_speed * config.tick_seconds,
-            self.drone.constants.max_speed * config.tick_seconds,
-        )
         model = self.scene.model
         res = config.grid_resolution
         z = config.cruise_altitude
-        self.planners = (
-            GoalFieldPlanner(
-                occupancy_grid(
-                    model, radius=self.vehicle.constants.radius, resolution=res, z_band=GROUND_BAND
-                )
-            ),
-            GoalFieldPlanner(
-                occupancy_grid(
-                    model, radius=config.drone_radius, resolution=res, z_band=(z - 0.2, z + 0.2)
-                )
-            ),
+        # One planner per kind, shared by its robots (same robot, same grid, same fields).
+        ground = GoalFieldPlanner(
+            occupancy_grid(
+                model, radius=self.vehicle.constants.radius, resolution=res, z_band=GROUND_BAND
+            )
         )
-        self._reach = (config.vehicle_reach, config.drone_standoff)
-        self._arrive_tol = (config.vehicle_arrive_tol, config.drone_arrive_tol)
-        for agent in (VEHICLE, DRONE):  # every field now, so no episode pays for one
-            for c in range(NUM_JARS):
+        cruise = GoalFieldPlanner(
+            occupancy_grid(
+                model, radius=config.drone_radius, resolution=res, z_band=(z - 0.2, z + 0.2)
+            )
+        )
+        kinds = [team.is_drone(a) for a in range(team.size)]
+        self.planners = tuple(cruise if d else ground for d in kinds)
+        self._step_length = tuple(
+            (r.constants.max_speed if d else r.max_speed) * config.tick_seconds
+            for r, d in zip(self.agent_robots, kinds, strict=True)
+        )
+        self._reach = tuple(config.drone_standoff if d else config.vehicle_reach for d in kinds)
+        self._arrive_tol = tuple(
+            config.drone_arrive_tol if d else config.vehicle_arrive_tol for d in kinds
+        )
+        for agent in (0, drones[0]):  # every field now, so no episode pays for one
+            for c in range(team.jars):
                 self.planners[agent].field(self.jar_xy[c], self._reach[agent])
-        self._drone_qpos_z = int(model.jnt_qposadr[model.body_jntadr[self.drone.root_body_id]]) + 2
+        self._drone_qpos_z = [
+            int(model.jnt_qposadr[model.body_jntadr[d.root_body_id]]) + 2 for d in self._drones
+        ]
         self.water = WaterLevels(config)
         self._options = option_sets(config)
-        self.known = np.ones(NUM_JARS)
-        self.updated = np.zeros(NUM_JARS, dtype=np.int64)
+        self._obs = obs_layout(team.jars)
+        self.known = np.ones(team.jars)
+        self.updated = np.zeros(team.jars, dtype=np.int64)
         self.reset(0)
 
     # --------------------------------------------------------------- static description
     @property
     def agent_names(self) -> tuple[str, ...]:
-        return AGENTS
+        return self.team.names
 
     def robot_of(self, agent: int) -> str:
-        return self.config.drone_robot if agent == DRONE else self.config.vehicle_robot
+        return self.team.robot(self.config, agent)
 
     def options(self, agent: int) -> Sequence[Option[Any]]:
         return self._options[agent]
 
     def observation_layout(self, agent: int) -> ObsLayout:
-        return OBS
+        return self._obs
 
     # --------------------------------------------------------------- dynamics
     @property
@@ -141,17 +147,18 @@ class WaterFilling(SceneTask):
     def reset(self, seed: int) -> None:
         scene = self.scene
         scene.reset()
-        # The drone starts hovering at cruise altitude above its spawn point.
+        # The drones start hovering at cruise altitude above their spawn points.
         scene.data.qpos[self._drone_qpos_z] = self.config.cruise_altitude
         mujoco.mj_forward(scene.model, scene.data)
-        self.drone.reset()
+        for drone in self._drones:
+            drone.reset()
         self.water.reset(seed)
         for jar in self.jars:  # Scene.reset does not restore the liquid geoms
             jar.set_level(1.0)
         self.known[:] = 1.0
         self.updated[:] = 0
         self._ticks = 0
-        self._fill_request = -1
+        self._fill_requests: dict[int, int] = {}  # vehicle -> jar, this tick
         self.fills = 0
         self.ran_dry = False
 
@@ -161,11 +168,11 @@ class WaterFilling(SceneTask):
         self._ticks += 1
         water = self.water
         water.step()
-        if self._fill_request >= 0:
-            if self.can_fill(self._fill_request):
-                water.fill(self._fill_request)
+        for agent, jar in sorted(self._fill_requests.items()):
+            if self.can_fill(agent, jar):
+                water.fill(jar)
                 self.fills += 1
-            self._fill_request = -1
+        self._fill_requests.clear()
         levels = water.levels
         for handle, level in zip(self.jars, levels, strict=True):
             if handle.level != level:
@@ -213,15 +220,15 @@ class WaterFilling(SceneTask):
         jx, jy = self._jar_xy[jar]
         return math.hypot(x - jx, y - jy)
 
-    def can_fill(self, jar: int) -> bool:
-        return self.distance_to_jar(VEHICLE, jar) <= self.config.fill_radius
+    def can_fill(self, agent: int, jar: int) -> bool:
+        return self.distance_to_jar(agent, jar) <= self.config.fill_radius
 
-    def jar_in_reach(self) -> int:
-        jar = min(range(NUM_JARS), key=lambda c: self.distance_to_jar(VEHICLE, c))
-        return jar if self.can_fill(jar) else -1
+    def jar_in_reach(self, agent: int) -> int:
+        jar = min(range(self.team.jars), key=lambda c: self.distance_to_jar(agent, c))
+        return jar if self.can_fill(agent, jar) else -1
 
-    def request_fill(self, jar: int) -> None:
-        self._fill_request = jar
+    def request_fill(self, agent: int, jar: int) -> None:
+        self._fill_requests[agent] = jar
 
     def route_to(self, agent: int, jar: int) -> Route:
         start = self.planar_position(agent)
@@ -237,13 +244,13 @@ class WaterFilling(SceneTask):
     def follow(self, agent: int, route: Route, jar: int) -> None:
         """Head for the route's current waypoint and, at the end, turn to face the jar.
 
-        The drone yaws toward the jar on its last leg. The vehicle's heading follows its motion,
+        A drone yaws toward the jar on its last leg. A vehicle's heading follows its motion,
         so once at the end point it creeps ``FACE_CREEP`` m toward the jar (well inside the grid's
         clearance slack) until it faces it.
         """
         tx, ty = route.target
         jx, jy = self._jar_xy[jar]
-        if agent == DRONE:
+        if self.team.is_drone(agent):
             yaw = math.atan2(jy - ty, jx - tx) if route.last_leg else None
             self._steer(agent, (tx, ty), yaw)
             return
@@ -272,26 +279,38 @@ class WaterFilling(SceneTask):
 
     def _steer(self, agent: int, xy: Sequence[float], yaw: float | None = None) -> None:
         """This tick's tracking command: drive (vehicle) or fly at cruise altitude (drone)."""
-        if agent == DRONE:
-            self.drone.fly_to((xy[0], xy[1], self.config.cruise_altitude), yaw=yaw)
+        robot = self.agent_robots[agent]
+        if self.team.is_drone(agent):
+            robot.fly_to((xy[0], xy[1], self.config.cruise_altitude), yaw=yaw)
         else:
-            self.vehicle.drive_to(xy)
+            robot.drive_to(xy)
 
     # --------------------------------------------------------------- observations
     def observe(self, agent: int) -> np.ndarray:
-        obs = OBS.zeros()
-        obs[OBS["known_levels"]] = self.known
-        obs[OBS["elapsed"]] = (self._ticks - self.updated) / self.config.max_ticks
+        layout = self._obs
+        obs = layout.zeros()
+        obs[layout["known_levels"]] = self.known
+        obs[layout["elapsed"]] = (self._ticks - self.updated) / self.config.max_ticks
         x, y = self.planar_position(agent)
-        obs[OBS["position"]] = (x / self.half_extent[0], y / self.half_extent[1])
+        obs[layout["position"]] = (x / self.half_extent[0], y / self.half_extent[1])
         return obs
 
     def describe(self) -> dict[str, object]:
+        """Levels, knowledge, fills, and each robot's position (``<name>_xy`` for a vehicle,
+        ``<name>_xyz`` for a drone)."""
+        team = self.team
+        where = {
+            f"{name}_xyz" if team.is_drone(a) else f"{name}_xy": (
+                self.agent_robots[a].position.tolist()
+                if team.is_drone(a)
+                else list(self.planar_position(a))
+            )
+            for a, name in enumerate(team.names)
+        }
         return {
             "levels": self.water.levels.tolist(),
             "known_levels": self.known.tolist(),
             "elapsed": (self._ticks - self.updated).tolist(),
-            "vehicle_xy": list(self.planar_position(VEHICLE)),
-            "drone_xyz": self.drone.position.tolist(),
+            **where,
             "fills": self.fills,
         }

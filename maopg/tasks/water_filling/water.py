@@ -7,7 +7,6 @@ from collections.abc import Sequence
 import numpy as np
 
 from maopg.tasks.water_filling.config import Config
-from maopg.tasks.water_filling.constants import NUM_JARS
 
 
 def jar_reward(levels: Sequence[float] | np.ndarray, eps: float = 0.001) -> float:
@@ -19,12 +18,13 @@ class WaterLevels:
     """Each jar counts down an interval ``round(Exp(scale=s))`` ticks, ``s`` drawn with
     ``rng.integers(*interval_scale)``; on expiry the level drops by
     ``|N(interval * drop_mean_per_tick, drop_std)|``, clipped at 0, and a new interval is drawn.
-    Every jar has its own numpy ``Generator`` spawned from the reset seed."""
+    Every jar (``config.jars`` of them) has its own numpy ``Generator`` spawned from the reset
+    seed: jar ``c``'s stream is the same whatever the number of jars."""
 
-    def __init__(self, config: Config, num_jars: int = NUM_JARS) -> None:
+    def __init__(self, config: Config) -> None:
         self.config = config
-        self.num_jars = num_jars
-        self.levels = np.ones(num_jars)
+        self.num_jars = config.jars
+        self.levels = np.ones(self.num_jars)
         self.reset(0)
 
     def reset(self, seed: int) -> None:
