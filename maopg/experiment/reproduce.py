@@ -16,9 +16,10 @@ it marks ``in_grid``).
 Runs are launched one after another as train command-line subprocesses (a crash or an
 out-of-memory kill loses one run, not the grid) or, with ``in_process=True``, by calling the
 train command line in this process (faster to start; used by the tests). An unknown task or
-method is an error before anything runs (a typo must not pass as an empty grid). ``overrides``
-(``key=value`` train config fields) apply to every run and must be the same on every invocation
-of a grid, because a resumed run refuses a config that differs from its saved one. Grid runs
+method is an error before anything runs (a typo must not pass as an empty grid), and so is a bad
+override. ``overrides`` (``key=value`` train settings, as on the train command line) and a
+``config_file`` apply to every run and must be the same on every invocation of a grid, because
+a resumed run refuses a config that differs from its saved one. Grid runs
 record no rollout video (``video=false``; ``python -m eval video`` makes one from any finished
 run).
 
@@ -39,6 +40,8 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from maopg.experiment.config import parse_overrides
+from maopg.experiment.config_file import read_config_file
 from maopg.experiment.evaluate import evaluate, results_table
 from maopg.experiment.methods import grid_method_names, method_names
 from maopg.experiment.plots import curve_table, plot_task
@@ -77,11 +80,32 @@ def cell_state(run_dir: Path) -> str:
     return "new"
 
 
-def _train_args(cell: Cell, run_dir: Path, overrides: Sequence[str]) -> list[str]:
+CELL_KEYS = ("task", "method", "seed", "run_dir")
+"""What the grid sets per cell, so no override of every run may."""
+
+
+def check_overrides(overrides: Sequence[str], methods: Sequence[str]) -> None:
+    """Parse ``overrides`` as each method's train command line would (``ValueError`` naming a
+    bad one), before any cell runs: a typo must not fail every cell one after another."""
+    for method in methods:
+        try:
+            values = parse_overrides(list(overrides), method)
+        except ValueError as err:
+            raise ValueError(f"{err} (every override goes to every --methods cell)") from None
+        fixed = sorted(set(values) & set(CELL_KEYS))
+        if fixed:
+            raise ValueError(f"{fixed[0]}=...: the grid sets {', '.join(CELL_KEYS)} per cell")
+
+
+def _train_args(
+    cell: Cell, run_dir: Path, overrides: Sequence[str], config_file: Path | None = None
+) -> list[str]:
     """The cell's train command line: ``--resume`` for a partial run (on a new one it is an
     error, which catches a mistyped directory)."""
     resume = ["--resume"] if cell_state(run_dir) == "partial" else []
+    config = ["--config", str(config_file)] if config_file is not None else []
     return [
+        *config,
         "--task",
         cell.task,
         "--method",
@@ -98,9 +122,15 @@ def _train_args(cell: Cell, run_dir: Path, overrides: Sequence[str]) -> list[str
     ]
 
 
-def _launch(cell: Cell, run_dir: Path, overrides: Sequence[str], in_process: bool) -> str:
+def _launch(
+    cell: Cell,
+    run_dir: Path,
+    overrides: Sequence[str],
+    in_process: bool,
+    config_file: Path | None = None,
+) -> str:
     """Train one cell to completion; returns ``done`` or ``failed: <why>``."""
-    args = _train_args(cell, run_dir, overrides)
+    args = _train_args(cell, run_dir, overrides, config_file)
     if in_process:
         from maopg.experiment.train_cli import main as train_main
 
@@ -126,6 +156,7 @@ def run_grid(
     methods: Sequence[str] | None = None,
     seeds: Sequence[int] | None = None,
     overrides: Sequence[str] = (),
+    config_file: str | Path | None = None,
     in_process: bool = False,
     dry_run: bool = False,
     log=print,
@@ -134,8 +165,9 @@ def run_grid(
     ``skipped`` (already finished), ``done``, ``failed: ...`` or, with ``dry_run``, ``would
     start`` / ``would resume``. ``tasks`` default to every registered one, ``methods`` to the grid's
     (:func:`~maopg.experiment.methods.grid_method_names`),
-    ``seeds`` replaces every task's declared grid seeds. Raises ``ValueError`` for a task or
-    method that is not registered."""
+    ``seeds`` replaces every task's declared grid seeds; ``overrides`` (``key=value``) and
+    ``config_file`` (a YAML or JSON settings file) go to every cell's train command line.
+    Raises ``ValueError`` for a task or method that is not registered, or a bad override."""
     tasks = list(tasks) if tasks is not None else task_names()
     methods = list(methods) if methods is not None else grid_method_names()
     for kind, given, known in (
@@ -145,6 +177,10 @@ def run_grid(
         unknown = [x for x in given if x not in known]
         if unknown:
             raise ValueError(f"unknown {kind}(s) {unknown}; choose from {list(known)}")
+    check_overrides(overrides, methods)
+    if config_file is not None:
+        config_file = Path(config_file).resolve()
+        read_config_file(config_file)  # a missing or broken file fails here, not in every cell
     runs_root = Path(runs_root).resolve()
     outcomes: dict[Cell, str] = {}
     # Seed-major: an interrupted grid has every method at the same number of seeds.
@@ -164,7 +200,7 @@ def run_grid(
             outcomes[cell] = "would resume" if state == "partial" else "would start"
         else:
             log(f"{name}: {'resuming' if state == 'partial' else 'starting'} in {run_dir}")
-            outcomes[cell] = _launch(cell, run_dir, overrides, in_process)
+            outcomes[cell] = _launch(cell, run_dir, overrides, in_process, config_file)
         log(f"{name}: {outcomes[cell]}")
     return outcomes
 

@@ -15,7 +15,6 @@ method's curves short and lower its peak.
 from __future__ import annotations
 
 import csv
-import json
 import math
 from collections import defaultdict
 from collections.abc import Iterable, Sequence
@@ -24,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from maopg.experiment.config_file import read_config_file
 from maopg.experiment.run_dir import CONFIG, DONE, METRICS
 
 RETURN = "episode_return"
@@ -68,7 +68,7 @@ def load_run(run_dir: str | Path) -> RunData:
     """Read ``config.json`` and ``metrics.csv`` of one run directory (a run that has not
     finished an iteration yet has a header and no rows: empty curves)."""
     run_dir = Path(run_dir)
-    config = json.loads((run_dir / CONFIG).read_text())
+    config = read_config_file(run_dir / CONFIG)
     with (run_dir / METRICS).open(newline="") as handle:
         reader = csv.DictReader(handle)
         rows = list(reader)

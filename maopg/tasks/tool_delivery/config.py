@@ -5,11 +5,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from maopg.tasks.base import TaskConfig
+from maopg.settings import setting
+from maopg.tasks.base import SceneTaskConfig
 
 
 @dataclass(frozen=True)
-class Config(TaskConfig):
+class Config(SceneTaskConfig):
     """Tool Delivery settings; the defaults are the canonical task's."""
 
     max_ticks: int = 150
@@ -23,20 +24,20 @@ class Config(TaskConfig):
     """Planar position of the arm's base (m): the arena's Fetch spot beside the desk."""
     desk_spots: tuple[tuple[float, float], tuple[float, float]] = ((0.8, 3.0), (1.2, 3.0))
     """Where Turtlebot 0 / 1 waits for a pass (m): within the arm's reach with its basket."""
-    human_stage_ticks: int = 18
-    search_ticks: int = 6
-    pass_ticks: int = 4
-    max_wait_ticks: int = 10
-    max_staged: int = 2
+    human_stage_ticks: int = setting(18, ge=1)
+    search_ticks: int = setting(6, ge=1)
+    pass_ticks: int = setting(4, ge=1)
+    max_wait_ticks: int = setting(10, ge=1)
+    max_staged: int = setting(2, ge=1)
     step_reward: float = -1.0
     delivery_reward: float = 100.0
     failed_pass_reward: float = -10.0
     mask_options: bool = False
     """Mask searches of found tools (or with the desk full) and passes with nothing staged.
     Off by default: the canonical task lets the Fetch waste time on them."""
-    arrive_tol: float = 0.05
+    arrive_tol: float = setting(0.05, gt=0.0)
     """A Turtlebot within this distance of a waypoint has arrived (m)."""
-    primitive_step: float = 0.6
+    primitive_step: float = setting(0.6, gt=0.0)
     """Distance of a one-tick primitive move (m): the Turtlebot's speed times one tick."""
-    primitive_tol: float = 0.4
+    primitive_tol: float = setting(0.4, gt=0.0)
     """Arrival tolerance in primitive mode, where moves lie on a 0.6 m lattice."""
