@@ -28,7 +28,8 @@ class Config(SceneTaskConfig):
     search_ticks: int = setting(6, ge=1)
     pass_ticks: int = setting(4, ge=1)
     max_wait_ticks: int = setting(10, ge=1)
-    max_staged: int = setting(2, ge=1)
+    max_staged: int = setting(2, ge=1, le=2)
+    """Tools the desk holds at once (its MJCF has two slots)."""
     step_reward: float = -1.0
     delivery_reward: float = 100.0
     failed_pass_reward: float = -10.0

@@ -9,6 +9,7 @@ import math
 from collections.abc import Sequence
 
 from maopg.sim.assets import ASSETS_DIR
+from maopg.sim.props import arena_floor
 from maopg.sim.robots import ArmAdapter, get_robot
 from maopg.sim.scene import Scene, SceneBuilder
 from maopg.tasks.tool_delivery.config import Config
@@ -40,7 +41,12 @@ def gripper_body(config: Config) -> str:
 def build_scene(
     config: Config, turtlebot_starts: Sequence[tuple[float, float]] = TURTLEBOT_STARTS
 ) -> Scene:
-    """Compile the scene; each tool may rest in the world, the gripper or either basket."""
+    """Compile the scene; each tool may rest in the world, the gripper or either basket. The
+    positions the config sets must lie on the floor (``ValueError`` naming the setting)."""
+    floor = arena_floor(ARENA)
+    floor.require_inside("env.fetch_base", config.fetch_base)
+    for w, spot in enumerate(config.desk_spots):
+        floor.require_inside(f"env.desk_spots[{w}]", spot)
     builder = SceneBuilder(ARENA, timestep=config.timestep, render_size=config.image_size)
     for w, (x, y) in zip(TURTLEBOTS, turtlebot_starts, strict=True):
         builder.add_robot(AGENTS[w], config.turtlebot_robot, (x, y, 0.0), yaw=math.pi)

@@ -9,11 +9,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-import mujoco
 import numpy as np
 
 from maopg.sim.assets import ASSETS_DIR
-from maopg.sim.props import layout_sites
+from maopg.sim.props import arena_floor, layout_sites
 from maopg.sim.scene import Scene, SceneBuilder
 from maopg.tasks.water_filling.config import Config
 from maopg.tasks.water_filling.constants import AGENTS, DRONE, NUM_JARS, VEHICLE
@@ -42,17 +41,24 @@ def arena_path(config: Config) -> Path:
 
 
 def read_arena(config: Config) -> Arena:
-    """The arena of ``config``, with its spawn sites unless the config sets the starts."""
+    """The arena of ``config``, with its spawn sites unless the config sets the starts (which
+    must lie on the floor: ``ValueError`` naming the setting)."""
     path = arena_path(config)
     sites = layout_sites(path)
-    floor = mujoco.MjModel.from_xml_path(str(path)).geom("floor").size
+    floor = arena_floor(path)
+    for setting, start in (
+        ("vehicle_start", config.vehicle_start),
+        ("drone_start", config.drone_start),
+    ):
+        if start is not None:
+            floor.require_inside(f"env.{setting}", start)
     return Arena(
         jar_sites=tuple(sites[f"jar_{c}"] for c in range(NUM_JARS)),
         starts=(
             config.vehicle_start or _planar(sites["spawn_vehicle"]),
             config.drone_start or _planar(sites["spawn_drone"]),
         ),
-        half_extent=(float(floor[0]), float(floor[1])),
+        half_extent=floor.half_extent,
     )
 
 
