@@ -37,6 +37,7 @@ from maopg.experiment.config_file import read_config_file
 from maopg.experiment.methods import get_method, section_classes
 from maopg.learner.mappo import PPOConfig
 from maopg.settings import Settings, setting
+from maopg.sim.egl_check import gl_problem
 from maopg.tasks import make_config, task_entry
 from maopg.tasks.base import MAX_IMAGE_SIZE
 
@@ -161,6 +162,10 @@ class TrainConfig(Settings):
             cfg.run_dir = str(Path("runs") / cfg.task / cfg.method / f"seed{cfg.seed}")
         cfg.device = resolve_device(cfg.device)
         cfg.validate()
+        renders = [key for key in ("images", "video") if getattr(cfg, key)]
+        problem = gl_problem() if renders else None
+        if problem:
+            raise ValueError(f"{problem} (this run renders: {renders[0]}=true)")
         if cfg.backend == "ray" and not ray_available():
             raise ValueError(INSTALL_HINT)
         cfg.learner.validate()

@@ -27,8 +27,14 @@ from pathlib import Path
 from typing import Any
 
 import maopg  # noqa: F401  (sets MUJOCO_GL=egl before anything imports mujoco)
+from maopg.sim.egl_check import exit_if_mujoco_cannot_import
+
+# One line, not PyOpenGL's traceback from the imports below:
+exit_if_mujoco_cannot_import("python -m eval")
+
+from maopg.env.contract import Strategy
 from maopg.env.rollout import REFERENCE_POLICIES
-from maopg.experiment.command_line import add_common_options, run_command
+from maopg.experiment.command_line import Parser, add_common_options, at_least, run_command
 from maopg.sim.checks import add_check_robot_arguments, cmd_check_robot
 
 PROG = "python -m eval"
@@ -41,13 +47,17 @@ def _policy_args(parser: argparse.ArgumentParser) -> None:
     source.add_argument("--checkpoint", type=Path, help="checkpoint file or run directory")
     source.add_argument("--reference", choices=REFERENCE_POLICIES, help="reference policy")
     parser.add_argument("--task", help="task of a reference policy (default tool_delivery)")
-    parser.add_argument("--strategy", help="strategy of a reference policy (default continue)")
+    parser.add_argument(
+        "--strategy",
+        choices=[s.value for s in Strategy],
+        help="strategy of a reference policy (default continue)",
+    )
     _settings_args(
         parser,
         "env.KEY=VALUE",
         "task settings of a reference policy's environment, e.g. env.turtlebot_robot=diffbot",
     )
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--seed", type=at_least(0), default=0)
     parser.add_argument(
         "--sample",
         action="store_true",
@@ -244,20 +254,20 @@ def build_parser() -> argparse.ArgumentParser:
     from maopg.experiment.methods import grid_method_names, method_names
     from maopg.tasks import task_entry, task_names
 
-    parser = argparse.ArgumentParser(prog=PROG, description=__doc__.split("\n")[0])
+    parser = Parser(prog=PROG, description=__doc__.split("\n")[0])
     add_common_options(parser)
     sub = parser.add_subparsers(dest="command", required=True)
 
     p = sub.add_parser("evaluate", help="mean ± std return etc. over N seeded episodes")
     _policy_args(p)
-    p.add_argument("--episodes", type=int, default=20)
+    p.add_argument("--episodes", type=at_least(1), default=20)
     p.add_argument("--json", type=Path, help="also write the result as JSON here")
     p.set_defaults(func=cmd_evaluate)
 
     p = sub.add_parser("video", help="record one episode as a headless MP4")
     _policy_args(p)
     p.add_argument("--out", type=Path, required=True)
-    p.add_argument("--fps", type=int, default=4)
+    p.add_argument("--fps", type=at_least(1), default=4)
     p.set_defaults(func=cmd_video)
 
     for name, func, text in (

@@ -69,6 +69,9 @@ def load_run(run_dir: str | Path) -> RunData:
     finished an iteration yet has a header and no rows: empty curves)."""
     run_dir = Path(run_dir)
     config = read_config_file(run_dir / CONFIG)
+    missing = [key for key in ("task", "method", "seed") if key not in config]
+    if missing:
+        raise ValueError(f"{run_dir / CONFIG} lacks {missing}")
     with (run_dir / METRICS).open(newline="") as handle:
         reader = csv.DictReader(handle)
         rows = list(reader)

@@ -17,7 +17,12 @@ from collections.abc import Sequence
 from pathlib import Path
 
 import maopg  # noqa: F401  (sets MUJOCO_GL before anything imports mujoco)
-from maopg.experiment.command_line import add_common_options, run_command
+from maopg.sim.egl_check import exit_if_mujoco_cannot_import
+
+# One line, not PyOpenGL's traceback from the imports below:
+exit_if_mujoco_cannot_import("python -m train")
+
+from maopg.experiment.command_line import Parser, add_common_options, run_command
 from maopg.experiment.config import TrainConfig, merge, parse_overrides, split_assignment
 from maopg.experiment.config_file import read_config_file
 from maopg.experiment.methods import method_names
@@ -30,7 +35,7 @@ PROG = "python -m train"
 
 def build_parser() -> argparse.ArgumentParser:
     """The parser, its choices from the registries as they are now (plugins loaded)."""
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog=PROG,
         description="Train an option-based multi-agent policy (MAPPO, or the Mac-DQN baseline).",
         epilog="Extra arguments key=value override any config field (e.g. num_envs=8, "
