@@ -52,12 +52,16 @@ USER_ERRORS = (
     KeyError,
     FileNotFoundError,
     FileExistsError,
+    NotADirectoryError,
+    IsADirectoryError,
+    PermissionError,
     CheckpointError,
     NonFiniteError,
     PluginError,
     RenderError,
 )
-"""What a user's input can cause; anything else is a bug and keeps its traceback."""
+"""What a user's input can cause (the path errors: a file or directory the user named); anything
+else is a bug and keeps its traceback."""
 
 
 def preparse(argv: Sequence[str] | None) -> tuple[argparse.Namespace, list[str]]:

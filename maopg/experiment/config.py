@@ -295,14 +295,14 @@ def _parse_value(text: str, annotation: Any, key: str) -> Any:
             return True
         if lowered in ("0", "false", "no", "off"):
             return False
-        raise ValueError(f"{key}: expected a boolean, got {text!r}")
+        raise ValueError(f"{key} expected bool, got {text!r}")
     try:
         if annotation is int:
             return int(text.replace("_", ""))
         if annotation is float:
             return float(text)
     except ValueError:
-        raise ValueError(f"{key}: expected {annotation.__name__}, got {text!r}") from None
+        raise ValueError(f"{key} expected {annotation.__name__}, got {text!r}") from None
     return text
 
 

@@ -72,8 +72,23 @@ def _policy_args(parser: argparse.ArgumentParser) -> None:
     )
 
 
-SETTING = re.compile(r"^[A-Za-z_][\w.]*=")
-"""A ``key=value`` argument (told apart from an option's value wherever it stands)."""
+SETTING = re.compile(r"^([A-Za-z_][\w.]*)=")
+"""A ``key=value`` argument."""
+
+
+def _split_settings(argv: list[str]) -> tuple[list[str], list[str]]:
+    """``(settings, the rest)``: the ``key=value`` items wherever they stand, so that a list
+    option (``--methods a b``) does not swallow those after it; a ``TASK=VALUE`` (a registered
+    task's name: ``--threshold``'s values) is no setting."""
+    from maopg.tasks import task_names
+
+    tasks = set(task_names())
+    settings = []
+    for item in argv:
+        match = SETTING.match(item)
+        if match and match.group(1) not in tasks:
+            settings.append(item)
+    return settings, [item for item in argv if item not in settings]
 
 
 def _settings_args(parser: argparse.ArgumentParser, metavar: str, text: str) -> None:
@@ -83,8 +98,10 @@ def _settings_args(parser: argparse.ArgumentParser, metavar: str, text: str) -> 
 
 
 def _retired_set(args: argparse.Namespace, prefix: str) -> None:
+    """``--set`` (an earlier release's spelling) is an error that shows the new one."""
     if args.set is not None:
-        new = " ".join(prefix + item for item in args.set) or f"{prefix}KEY=VALUE"
+        items = [item.removeprefix(prefix) for item in args.set or args.settings]
+        new = " ".join(prefix + item for item in items) or f"{prefix}KEY=VALUE"
         raise ValueError(f"--set is retired: write the settings as arguments, {new}")
 
 
@@ -344,12 +361,12 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _run(argv: list[str], plugins: list[str]) -> int:
-    args, rest = build_parser().parse_known_args(argv)
-    if hasattr(args, "settings"):  # key=value after an option: argparse leaves it over
-        args.settings += [item for item in rest if SETTING.match(item)]
-        rest = [item for item in rest if not SETTING.match(item)]
-    if rest:
-        raise ValueError(f"unrecognized arguments: {' '.join(rest)}")
+    settings, rest = _split_settings(argv)
+    args = build_parser().parse_args(rest)
+    if settings and not hasattr(args, "settings"):
+        raise ValueError(f"unrecognized arguments: {' '.join(settings)}")
+    if settings:
+        args.settings = [*args.settings, *settings]
     return args.func(args)
 
 

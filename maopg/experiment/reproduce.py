@@ -40,8 +40,6 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from maopg.experiment.config import parse_overrides
-from maopg.experiment.config_file import read_config_file
 from maopg.experiment.evaluate import evaluate, results_table
 from maopg.experiment.methods import grid_method_names, method_names
 from maopg.experiment.plots import curve_table, plot_task
@@ -80,21 +78,20 @@ def cell_state(run_dir: Path) -> str:
     return "new"
 
 
-CELL_KEYS = ("task", "method", "seed", "run_dir")
-"""What the grid sets per cell, so no override of every run may."""
+def check_cells(cells: Sequence[Cell], runs_root: Path, overrides: Sequence[str], config_file):
+    """Read each task and method's train command line as the cell would, before any cell runs
+    (``ValueError`` naming the cell and the setting): a bad override or config file must not
+    fail every cell one after another."""
+    from maopg.experiment.train_cli import parse_args
 
-
-def check_overrides(overrides: Sequence[str], methods: Sequence[str]) -> None:
-    """Parse ``overrides`` as each method's train command line would (``ValueError`` naming a
-    bad one), before any cell runs: a typo must not fail every cell one after another."""
-    for method in methods:
+    for cell in {(c.task, c.method): c for c in cells}.values():
+        args = _train_args(cell, cell.run_dir(runs_root), overrides, config_file)
         try:
-            values = parse_overrides(list(overrides), method)
+            parse_args(args)[0].resolved()
         except ValueError as err:
-            raise ValueError(f"{err} (every override goes to every --methods cell)") from None
-        fixed = sorted(set(values) & set(CELL_KEYS))
-        if fixed:
-            raise ValueError(f"{fixed[0]}=...: the grid sets {', '.join(CELL_KEYS)} per cell")
+            raise ValueError(
+                f"{cell.task}/{cell.method}: {err} (settings go to every cell)"
+            ) from None
 
 
 def _train_args(
@@ -177,10 +174,7 @@ def run_grid(
         unknown = [x for x in given if x not in known]
         if unknown:
             raise ValueError(f"unknown {kind}(s) {unknown}; choose from {list(known)}")
-    check_overrides(overrides, methods)
-    if config_file is not None:
-        config_file = Path(config_file).resolve()
-        read_config_file(config_file)  # a missing or broken file fails here, not in every cell
+    config_file = Path(config_file).resolve() if config_file is not None else None
     runs_root = Path(runs_root).resolve()
     outcomes: dict[Cell, str] = {}
     # Seed-major: an interrupted grid has every method at the same number of seeds.
@@ -190,6 +184,7 @@ def run_grid(
         for s in (seeds if seeds is not None else task_entry(t).grid_seeds)
         for m in methods
     ]
+    check_cells(cells, runs_root, overrides, config_file)
     for k, cell in enumerate(cells, 1):
         run_dir = cell.run_dir(runs_root)
         state = cell_state(run_dir)
