@@ -4,7 +4,9 @@
 Named flags cover what one changes per run; any :class:`~maopg.experiment.config.TrainConfig`
 field can be overridden as ``key=value`` (``num_envs=8``), the method's hyper-parameters as
 ``SECTION.key=value`` (``ppo.epochs=5``, ``dqn.lr=1e-3``) and task settings as
-``env.key=value``. Tasks and methods are the registries' (``maopg.tasks``,
+``env.key=value``, over the settings of a ``--config run.yaml`` (or ``.json``) file; a
+``key=value`` that repeats a flag (``seed=2`` with ``--seed 1``) must agree with it. Tasks and
+methods are the registries' (``maopg.tasks``,
 ``maopg.experiment.methods``), extended by plugins (``--import MODULE``), which the run records
 so that ``--resume`` and evaluation import them again.
 """

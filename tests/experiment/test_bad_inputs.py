@@ -167,6 +167,16 @@ def test_an_error_exit_with_a_renderer_open_prints_only_the_error(tmp_path):
     assert len(proc.stderr.strip().splitlines()) == 1
 
 
+def test_a_frame_beyond_what_the_gl_context_holds_is_a_render_error(robots):
+    """Configs cap ``image_size`` at 4096 (every GL renders that); a bigger frame asked of the
+    renderer directly fails by its size, not deep in MuJoCo."""
+    from maopg.sim.render import CameraRenderer, RenderError
+
+    model = robots["fetch"].model
+    with pytest.raises(RenderError, match=r"cannot render 100000x100000 frames with MUJOCO_GL=egl"):
+        CameraRenderer(model, 100_000, 100_000)
+
+
 # ---------------------------------------------------------------------------- config files
 SETTINGS = ["--method", "sync-wait", "--seed", "3", "num_envs=2", "ppo.epochs=4"]
 SETTINGS += ["ppo.lr=1e-3", "env.max_ticks=90", "env.desk_spots=[[0.8,3.0],[1.3,3.0]]"]
