@@ -132,7 +132,12 @@ class Settings:
 
 @cache
 def _hints(cls: type) -> dict[str, Any]:
-    return get_type_hints(cls)
+    """The fields' annotations; none where they do not resolve at run time (a name imported
+    only for type checkers): the kinds then go unchecked, the bounds still apply."""
+    try:
+        return get_type_hints(cls)
+    except (NameError, TypeError):
+        return {}
 
 
 @cache

@@ -162,15 +162,19 @@ class TrainConfig(Settings):
             cfg.run_dir = str(Path("runs") / cfg.task / cfg.method / f"seed{cfg.seed}")
         cfg.device = resolve_device(cfg.device)
         cfg.validate()
-        renders = [key for key in ("images", "video") if getattr(cfg, key)]
-        problem = gl_problem() if renders else None
-        if problem:
-            raise ValueError(f"{problem} (this run renders: {renders[0]}=true)")
         if cfg.backend == "ray" and not ray_available():
             raise ValueError(INSTALL_HINT)
         cfg.learner.validate()
         make_config(cfg.task, cfg.env_overrides)  # the task settings' names and kinds
         return cfg
+
+    def rendering_problem(self) -> str | None:
+        """Why this machine cannot render what the run renders (camera observations with
+        ``images``, the final video with ``video``), or ``None``: the trainer asks before it
+        writes anything, instead of failing at the first frame or after the whole run."""
+        renders = [key for key in ("images", "video") if getattr(self, key)]
+        problem = gl_problem() if renders else None
+        return f"{problem} (this run renders: {renders[0]}=true)" if problem else None
 
     def backend_options(self) -> dict[str, Any]:
         """The chosen backend's own settings (the ``ray`` section for ``backend=ray``)."""
