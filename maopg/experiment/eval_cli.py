@@ -76,12 +76,19 @@ SETTING = re.compile(r"^([A-Za-z_][\w.]*)=")
 """A ``key=value`` argument."""
 
 
+SETTINGS_COMMANDS = ("evaluate", "video", "reproduce")
+"""The subcommands that take ``key=value`` settings."""
+
+
 def _split_settings(argv: list[str]) -> tuple[list[str], list[str]]:
-    """``(settings, the rest)``: the ``key=value`` items wherever they stand, so that a list
-    option (``--methods a b``) does not swallow those after it; a ``TASK=VALUE`` (a registered
-    task's name: ``--threshold``'s values) is no setting."""
+    """``(settings, the rest)``: for a subcommand that takes settings, the ``key=value`` items
+    wherever they stand, so that a list option (``--methods a b``) does not swallow those after
+    it; a ``TASK=VALUE`` (a registered task's name: ``--threshold``'s values) is no setting."""
     from maopg.tasks import task_names
 
+    command = next((item for item in argv if not item.startswith("-")), None)
+    if command not in SETTINGS_COMMANDS:
+        return [], argv
     tasks = set(task_names())
     settings = []
     for item in argv:
@@ -156,10 +163,7 @@ def _thresholds(items: list[str]) -> dict[str, float]:
         except ValueError as err:
             raise ValueError(f"--threshold expects TASK=VALUE: {err}") from None
         if "." in task:
-            raise ValueError(
-                f"--threshold {item}: {task!r} is no task name (write key=value settings "
-                "before --threshold, which takes every TASK=VALUE after it)"
-            )
+            raise ValueError(f"--threshold {item}: {task!r} is no task name")
     return out
 
 
@@ -363,8 +367,6 @@ def build_parser() -> argparse.ArgumentParser:
 def _run(argv: list[str], plugins: list[str]) -> int:
     settings, rest = _split_settings(argv)
     args = build_parser().parse_args(rest)
-    if settings and not hasattr(args, "settings"):
-        raise ValueError(f"unrecognized arguments: {' '.join(settings)}")
     if settings:
         args.settings = [*args.settings, *settings]
     return args.func(args)
