@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import ctypes.util
 import functools
+import importlib.util
 import os
 import sys
 
@@ -39,7 +40,8 @@ def _backend() -> str:
 
 def import_problem() -> str | None:
     """Why ``import mujoco`` would fail under this ``MUJOCO_GL`` (a value MuJoCo does not know,
-    or ``osmesa`` without libOSMesa: PyOpenGL then fails inside MuJoCo's import), or ``None``."""
+    ``osmesa`` without libOSMesa: PyOpenGL then fails inside MuJoCo's import, ``glfw`` without
+    its Python package), or ``None``."""
     gl = _backend()
     if gl not in GL_BACKENDS:
         return f"MUJOCO_GL={gl!r}: maopg renders with MUJOCO_GL one of {list(GL_BACKENDS)}"
@@ -48,6 +50,8 @@ def import_problem() -> str | None:
             "MUJOCO_GL=osmesa, but libOSMesa is not installed (sudo apt-get install "
             "libosmesa6); headless rendering works with MUJOCO_GL=egl"
         )
+    if gl == "glfw" and importlib.util.find_spec("glfw") is None:
+        return "MUJOCO_GL=glfw needs the glfw package (pip install glfw)"
     return None
 
 

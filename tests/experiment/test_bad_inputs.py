@@ -127,7 +127,10 @@ def test_a_corrupt_saved_config_is_named(tmp_path, capsys):
 
 
 def _subprocess(args: list[str], **env: str) -> subprocess.CompletedProcess:
-    environ = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    """``python ARGS`` from the repository, headless (no display), ``env`` over this process's
+    environment (whose PyOpenGL platform follows its own ``MUJOCO_GL``)."""
+    unset = ("DISPLAY", "WAYLAND_DISPLAY", "PYOPENGL_PLATFORM")
+    environ = {k: v for k, v in os.environ.items() if k not in unset}
     environ.update(env, PYTHONPATH=str(REPO))
     return subprocess.run(
         [sys.executable, *args], cwd=REPO, env=environ, capture_output=True, text=True, timeout=300
@@ -146,12 +149,12 @@ def test_osmesa_without_its_library_is_one_line(tmp_path):
 def test_glfw_without_a_display_is_one_line_before_anything_is_written(tmp_path):
     run_dir = tmp_path / "run"
     train = ["-m", "train", *TINY, "--run-dir", str(run_dir), "--images", "image_size=36"]
-    proc = _subprocess(train, MUJOCO_GL="glfw", PYOPENGL_PLATFORM="")
+    proc = _subprocess(train, MUJOCO_GL="glfw")
     assert proc.returncode == 2
     _one_line(proc.stderr, r"MUJOCO_GL=glfw needs a display.*\(this run renders: images=true\)")
     assert not run_dir.exists()
     video = ["-m", "eval", "video", "--reference", "scripted", "--out", str(tmp_path / "v.mp4")]
-    proc = _subprocess(video, MUJOCO_GL="glfw", PYOPENGL_PLATFORM="")
+    proc = _subprocess(video, MUJOCO_GL="glfw")
     assert proc.returncode == 2
     _one_line(proc.stderr, r"cannot render 640x480 frames with MUJOCO_GL=glfw: .*needs a display")
 
