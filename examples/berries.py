@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from maopg.options.base import Execution, Option
+from maopg.settings import setting
 from maopg.tasks import ObsLayout, Task, TaskConfig, register_task
 from maopg.tasks.scripting import DecisionView
 
@@ -37,7 +38,8 @@ class BerryConfig(TaskConfig):
     """The field's settings (``env.KEY=VALUE`` on the command line)."""
 
     max_ticks: int = 60
-    ripen_prob: float = 0.08
+    ripen_prob: float = setting(0.08, ge=0.0, le=1.0)
+    """Chance per tick that a bush ripens (a probability, so its bounds are declared)."""
     step_reward: float = -0.1
     harvest_reward: float = 10.0
 

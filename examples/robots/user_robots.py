@@ -9,7 +9,7 @@ module registers both, so any command line can use them (docs/tutorial_robot.md)
     python -m eval check-robot --import examples.robots.user_robots --robot holonomic_base
     python -m eval check-robot --import examples.robots.user_robots --robot quadrotor
     python -m eval evaluate --import examples.robots.user_robots --reference scripted \\
-        --task water_filling --set drone_robot=quadrotor vehicle_robot=holonomic_base
+        --task water_filling env.drone_robot=quadrotor env.vehicle_robot=holonomic_base
 """
 
 from __future__ import annotations

@@ -6,6 +6,12 @@ its option has a mask with only that option allowed, so any masked sample re-sub
 agent simply continues; ``infos[agent]["choosing"]`` says who really chooses (RLlib-style
 consumers keep only those). Rewards are the shared reward summed since the previous decision
 point; ``infos[agent]["duration"]`` carries the ticks it spans.
+
+An action is an integer (a Python or NumPy integer) per agent. A choosing agent must send one;
+a continuing agent may send nothing or its running option (``infos[agent]["running"]``, the one
+option its mask allows), anything else is refused: a float, string, NaN or ``None``, an agent
+the environment does not have, or another option for an agent still running one each raise a
+``ValueError`` naming the agent and the action — nothing is silently replaced.
 """
 
 from __future__ import annotations
@@ -61,17 +67,7 @@ class OptionParallelEnv(ParallelEnv):
         point = self._point
         if point is None or not self.agents:
             raise ValueError("step() called before reset() or after the episode ended")
-        missing = [a for i, a in enumerate(self.agents) if point.choosing[i] and a not in actions]
-        if missing:
-            raise ValueError(f"agents {missing} are choosing (in U_t) and need an action")
-        joint = np.array(
-            [
-                int(actions[a]) if point.choosing[i] else point.running[i]
-                for i, a in enumerate(self.possible_agents)
-            ],
-            dtype=np.int64,
-        )
-        self._point = point = self.env.step(joint)
+        self._point = point = self.env.step(self._joint(point, actions))
         observations, infos = self._observations(), self._infos()
         rewards = dict.fromkeys(self.agents, float(point.reward))
         terminated = dict.fromkeys(self.agents, point.terminated)
@@ -82,6 +78,31 @@ class OptionParallelEnv(ParallelEnv):
 
     def close(self) -> None:
         self.env.close()
+
+    def _joint(self, point: DecisionPoint, actions: dict[str, Any]) -> np.ndarray:
+        """The joint option of ``actions`` (the rules are in the module docstring)."""
+        unknown = [a for a in actions if a not in self.possible_agents]
+        if unknown:
+            raise ValueError(
+                f"action for unknown agent(s) {unknown}; the agents are {self.possible_agents}"
+            )
+        missing = [a for i, a in enumerate(self.agents) if point.choosing[i] and a not in actions]
+        if missing:
+            raise ValueError(f"agents {missing} are choosing (in U_t) and need an action")
+        joint = point.running.astype(np.int64)
+        for i, agent in enumerate(self.possible_agents):
+            if agent not in actions:
+                continue
+            action = actions[agent]
+            if not isinstance(action, int | np.integer) or isinstance(action, bool | np.bool_):
+                raise ValueError(f"agent {agent!r}: action {action!r} is not an integer option")
+            if not point.choosing[i] and action != point.running[i]:
+                raise ValueError(
+                    f"agent {agent!r}: action {action!r}, but it is still running option "
+                    f"{point.running[i]}; send that (or no action) until it chooses"
+                )
+            joint[i] = int(action)
+        return joint
 
     def _observations(self) -> dict[str, dict[str, np.ndarray]]:
         point = self._point

@@ -40,7 +40,7 @@ import os
 import socket
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -54,6 +54,7 @@ from maopg.env.vector_base import (
     worker_envs,
 )
 from maopg.plugins import env_plugins
+from maopg.settings import Settings, setting
 
 log = logging.getLogger(__name__)
 
@@ -66,23 +67,22 @@ def ray_available() -> bool:
 
 
 @dataclass(frozen=True)
-class RayOptions:
+class RayOptions(Settings):
     """The ``ray.*`` settings of a run: where the actors run, not what they compute (a resumed
     run may change them)."""
+
+    PREFIX: ClassVar[str] = "ray."
 
     address: str | None = None
     """``None``: start a local Ray instance; ``auto``: join this machine's cluster; else the
     address given to ``ray.init`` (``HOST:6379``, ``ray://HOST:10001``)."""
-    cpus_per_actor: float = 1.0
+    cpus_per_actor: float = setting(1.0, gt=0.0)
     """Logical CPUs each actor reserves (Ray places actors by them)."""
-    max_replacements: int = 8
+    max_replacements: int = setting(8, ge=0)
     """Dead actors replaced in one run before giving up."""
 
     def validate(self) -> None:
-        if not (math.isfinite(self.cpus_per_actor) and self.cpus_per_actor > 0):
-            raise ValueError(f"ray.cpus_per_actor must be > 0, got {self.cpus_per_actor}")
-        if self.max_replacements < 0:
-            raise ValueError(f"ray.max_replacements must be >= 0, got {self.max_replacements}")
+        super().validate()
         if self.address not in (None, "auto"):
             host, sep, port = self.address.removeprefix("ray://").rpartition(":")
             if not (host and sep and port.isdigit()):
@@ -176,7 +176,6 @@ class RayVectorEnv(SplitVectorEnv):
         import ray
 
         self.options = options or RayOptions()
-        self.options.validate()
         if num_actors < 1:
             raise ValueError(f"num_workers (Ray actors) must be >= 1, got {num_actors}")
         self.num_envs = num_envs

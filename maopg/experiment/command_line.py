@@ -6,7 +6,8 @@ the registries', which a plugin extends. A mistake of the user's (a bad setting,
 directory, a plugin that fails to import) ends the command with one line naming it and exit
 status 2; ``--debug`` shows the traceback instead. A training run that went non-finite (NaN or
 infinity in a loss, gradient or weight) ends the same way: its settings, not the code, are at
-fault.
+fault. So does a machine that cannot render what the command needs (``MUJOCO_GL`` and its
+libraries, a display for ``glfw``): its setup, not the code.
 """
 
 from __future__ import annotations
@@ -14,20 +15,53 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Callable, Sequence
+from typing import NoReturn
 
 from maopg.learner import CheckpointError, NonFiniteError
 from maopg.plugins import PluginError, load_plugins
+from maopg.sim.render import RenderError
+
+
+class UsageError(ValueError):
+    """A command line argparse refused (an unknown option, a bad choice or number)."""
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse's parser, its usage errors user errors like any other: one line and status 2
+    from :func:`run_command` (argparse would print the whole usage first). Subcommands'
+    parsers are of the same class."""
+
+    def error(self, message: str) -> NoReturn:
+        raise UsageError(f"{message} (see {self.prog} --help)")
+
+
+def at_least(minimum: int) -> Callable[[str], int]:
+    """An argparse ``type``: an integer >= ``minimum`` (a seed: 0; a count: 1)."""
+
+    def integer(text: str) -> int:
+        value = int(text)
+        if value < minimum:
+            raise argparse.ArgumentTypeError(f"must be >= {minimum}, got {value}")
+        return value
+
+    return integer
+
 
 USER_ERRORS = (
     ValueError,
     KeyError,
     FileNotFoundError,
     FileExistsError,
+    NotADirectoryError,
+    IsADirectoryError,
+    PermissionError,
     CheckpointError,
     NonFiniteError,
     PluginError,
+    RenderError,
 )
-"""What a user's input can cause; anything else is a bug and keeps its traceback."""
+"""What a user's input can cause (the path errors: a file or directory the user named); anything
+else is a bug and keeps its traceback."""
 
 
 def preparse(argv: Sequence[str] | None) -> tuple[argparse.Namespace, list[str]]:

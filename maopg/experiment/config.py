@@ -10,6 +10,11 @@ overrides address fields by name (``num_envs=8``), ``SECTION.NAME=VALUE`` the se
 left ``None`` take per-task defaults (declared by the task at registration) in
 :meth:`TrainConfig.resolved`.
 
+A config file (``--config run.yaml`` or ``.json``: :func:`read_config_file`) holds the same
+keys, sections nested (``ppo: {epochs: 5}``, ``env: {max_ticks: 100}``) or dotted
+(``ppo.epochs: 5``); a run's saved ``config.json`` is one. On a command line the file comes
+first and ``key=value`` overrides it.
+
 MAPPO's hyper-parameters used to be flat fields (``epochs=5``): the flat keys stay accepted for
 one release, with a deprecation message, and run directories written then load unchanged.
 """
@@ -28,9 +33,13 @@ import torch
 
 from maopg.env.ray_backend import INSTALL_HINT, RayOptions, ray_available
 from maopg.env.vector import BACKENDS, EnvConfig
+from maopg.experiment.config_file import read_config_file
 from maopg.experiment.methods import get_method, section_classes
 from maopg.learner.mappo import PPOConfig
+from maopg.settings import Settings, setting
+from maopg.sim.egl_check import gl_problem
 from maopg.tasks import make_config, task_entry
+from maopg.tasks.base import MAX_IMAGE_SIZE
 
 GENERIC_DEFAULTS: dict[str, Any] = {"batch_ticks": 1000, "total_samples": 100_000, "images": False}
 """For a task that declares no training defaults of its own (``register_task``)."""
@@ -39,48 +48,56 @@ LEGACY_FLAT_KEYS = frozenset(f.name for f in dataclasses.fields(PPOConfig))
 """MAPPO's hyper-parameters as the flat fields they were before the ``ppo`` section."""
 
 
+DEVICES = ("auto", "cpu", "cuda")
+"""The values of the ``device`` setting."""
+
+
 @dataclass
-class TrainConfig:
-    """Everything a training run depends on. A resolved config fully determines the run."""
+class TrainConfig(Settings):
+    """Everything a training run depends on. A resolved config fully determines the run. Each
+    field declares its kind and bounds (:mod:`maopg.settings`), checked when the config is made
+    and again once :meth:`resolved` has filled in the defaults."""
 
     task: str = "tool_delivery"
     method: str = "async"
-    seed: int = 0
-    total_samples: int | None = None
+    seed: int = setting(0, ge=0)
+    """Seeds every random stream of the run (episodes, initialisation, sampling)."""
+    total_samples: int | None = setting(None, ge=1)
     """Low-level ticks to train for (per-task default)."""
-    batch_ticks: int | None = None
+    batch_ticks: int | None = setting(None, ge=1)
     """Low-level ticks per iteration (paper: TD 200, WF 2000)."""
     images: bool | None = None
     """RGB camera observations (per-task default: WF yes, TD no)."""
-    image_size: int = 64
-    num_envs: int = 4
+    image_size: int = setting(64, ge=1, le=MAX_IMAGE_SIZE)
+    """Side of the square camera images (px)."""
+    num_envs: int = setting(4, ge=1)
     backend: str | None = None
     """Where the environments run: ``local`` (this process, one after another), ``threads``
     (this process, stepped in parallel while ``mj_step`` and rendering release the GIL;
     ``bench/backends.py`` measures the gain), ``processes`` (``spawn`` workers) or ``ray``
     (Ray actors, on this machine or a cluster: the ``ray.*`` settings); default
     ``processes`` when ``num_workers`` > 1, else ``threads``. All give the same rollouts."""
-    num_workers: int = 0
+    num_workers: int = setting(0, ge=0)
     """Worker processes of the ``processes`` backend, actors of ``ray`` (0 = one), threads of
     ``threads`` (at least 2)."""
     ray: RayOptions = field(default_factory=RayOptions)
     """Where the ``ray`` backend's actors run (``ray.address=auto``; :class:`RayOptions`)."""
-    gamma: float = 0.99
+    gamma: float = setting(0.99, ge=0.0, le=1.0)
     """Discount per tick (it also discounts the environment's rewards)."""
-    hidden: int = 128
+    hidden: int = setting(128, ge=1)
     """Width of the encoders' MLP layers (actor, critic, Q-network)."""
-    layers: int = 2
+    layers: int = setting(2, ge=1)
     """Depth of the encoders' MLPs."""
-    checkpoint_every: int = 10
+    checkpoint_every: int = setting(10, ge=1)
     """Iterations between checkpoints (one is also written at the end)."""
-    device: str = "auto"
+    device: str = setting("auto", choices=DEVICES)
     """Where the networks, their optimisers and the updates run: ``cpu``, ``cuda`` or ``auto``
     (``cuda`` where ``torch.cuda.is_available()``, else ``cpu``); :meth:`resolved` replaces
     ``auto`` by the device it picked, so ``config.json`` records where the run computed. The
     environments always step (and render) on the CPU side. Bit-exact learning curves are
     promised on ``cpu`` only: CUDA kernels round differently (and not always deterministically),
     so a ``cuda`` run is reproducible in distribution, not bit for bit."""
-    torch_threads: int = 1
+    torch_threads: int = setting(1, ge=0)
     """``torch.set_num_threads`` (0 = torch's default). One thread is fastest for the small
     state-vector networks and avoids oversubscribing the cores the environments use."""
     progress: bool = True
@@ -109,6 +126,13 @@ class TrainConfig:
     learner: Any = None
     """The method's config section (an instance of its learner's ``Config``; ``None`` = its
     defaults). Saved under the section's name (``"ppo": {...}``)."""
+
+    def validate(self) -> None:
+        super().validate()
+        if self.backend is not None and self.backend not in BACKENDS:
+            raise ValueError(f"backend must be one of {sorted(BACKENDS)}, got {self.backend!r}")
+        if self.backend == "processes" and self.num_workers < 1:
+            raise ValueError("backend=processes needs num_workers >= 1")
 
     # ------------------------------------------------------------------ derived views
     @property
@@ -141,24 +165,20 @@ class TrainConfig:
         if cfg.run_dir is None:
             cfg.run_dir = str(Path("runs") / cfg.task / cfg.method / f"seed{cfg.seed}")
         cfg.device = resolve_device(cfg.device)
-        keys = ("total_samples", "batch_ticks", "num_envs", "checkpoint_every", "hidden", "layers")
-        for key in keys:
-            if getattr(cfg, key) < 1:
-                raise ValueError(f"{key} must be >= 1, got {getattr(cfg, key)}")
-        if cfg.backend not in BACKENDS:
-            raise ValueError(f"backend must be one of {sorted(BACKENDS)}, got {cfg.backend!r}")
-        if cfg.backend == "processes" and cfg.num_workers < 1:
-            raise ValueError("backend=processes needs num_workers >= 1")
-        if cfg.num_workers < 0:
-            raise ValueError(f"num_workers must be >= 0, got {cfg.num_workers}")
+        cfg.validate()
         if cfg.backend == "ray" and not ray_available():
             raise ValueError(INSTALL_HINT)
-        cfg.ray.validate()
-        if not 0.0 <= cfg.gamma <= 1.0:
-            raise ValueError(f"gamma must lie in [0, 1], got {cfg.gamma}")
         cfg.learner.validate()
         make_config(cfg.task, cfg.env_overrides)  # the task settings' names and kinds
         return cfg
+
+    def rendering_problem(self) -> str | None:
+        """Why this machine cannot render what the run renders (camera observations with
+        ``images``, the final video with ``video``), or ``None``: the trainer asks before it
+        writes anything, instead of failing at the first frame or after the whole run."""
+        renders = [key for key in ("images", "video") if getattr(self, key)]
+        problem = gl_problem() if renders else None
+        return f"{problem} (this run renders: {renders[0]}=true)" if problem else None
 
     def backend_options(self) -> dict[str, Any]:
         """The chosen backend's own settings (the ``ray`` section for ``backend=ray``)."""
@@ -227,15 +247,12 @@ class TrainConfig:
 
     @staticmethod
     def load(path: Path) -> TrainConfig:
+        """A saved ``config.json`` (or any config file); every error names the file."""
+        data = read_config_file(path)
         try:
-            data = json.loads(path.read_text())
-        except json.JSONDecodeError as err:
-            raise ValueError(f"{path} is not valid JSON: {err}") from None
-        return TrainConfig.from_dict(data)
-
-
-DEVICES = ("auto", "cpu", "cuda")
-"""The values of the ``device`` setting."""
+            return TrainConfig.from_dict(data)
+        except ValueError as err:
+            raise ValueError(f"{path}: {err}") from None
 
 
 def resolve_device(device: str) -> str:
@@ -286,14 +303,14 @@ def _parse_value(text: str, annotation: Any, key: str) -> Any:
             return True
         if lowered in ("0", "false", "no", "off"):
             return False
-        raise ValueError(f"{key}: expected a boolean, got {text!r}")
+        raise ValueError(f"{key} expected bool, got {text!r}")
     try:
         if annotation is int:
             return int(text.replace("_", ""))
         if annotation is float:
             return float(text)
     except ValueError:
-        raise ValueError(f"{key}: expected {annotation.__name__}, got {text!r}") from None
+        raise ValueError(f"{key} expected {annotation.__name__}, got {text!r}") from None
     return text
 
 

@@ -4,24 +4,37 @@ Installed, the same command line is ``maopg-eval``.
 
 python -m eval evaluate --checkpoint runs/tool_delivery/async/seed0 --episodes 20
 python -m eval evaluate --reference scripted --task tool_delivery --episodes 10
-python -m eval evaluate --reference scripted --task tool_delivery --set turtlebot_robot=diffbot
+python -m eval evaluate --reference scripted --task tool_delivery env.turtlebot_robot=diffbot
 python -m eval video --checkpoint runs/tool_delivery/async/seed0 --out out/td_async.mp4
 python -m eval plot runs/ --out out/plots
 python -m eval table runs/ --threshold tool_delivery=200
 python -m eval check-robot --robot drone --role drone
 python -m eval reproduce              # the committed grid: results/runs → results/
+python -m eval reproduce --tasks tool_delivery ppo.epochs=5 --config grid.yaml
+
+Settings are written as on the train command line: ``key=value`` arguments (task settings
+``env.KEY=VALUE``) anywhere on the line; ``--set`` of earlier releases is refused with the new
+spelling.
 """
 
 from __future__ import annotations
 
 import argparse
+import re
 import sys
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import maopg  # noqa: F401  (sets MUJOCO_GL=egl before anything imports mujoco)
+from maopg.sim.egl_check import exit_if_mujoco_cannot_import
+
+# One line, not PyOpenGL's traceback from the imports below:
+exit_if_mujoco_cannot_import("python -m eval")
+
+from maopg.env.contract import Strategy
 from maopg.env.rollout import REFERENCE_POLICIES
-from maopg.experiment.command_line import add_common_options, run_command
+from maopg.experiment.command_line import Parser, add_common_options, at_least, run_command
 from maopg.sim.checks import add_check_robot_arguments, cmd_check_robot
 
 PROG = "python -m eval"
@@ -34,15 +47,17 @@ def _policy_args(parser: argparse.ArgumentParser) -> None:
     source.add_argument("--checkpoint", type=Path, help="checkpoint file or run directory")
     source.add_argument("--reference", choices=REFERENCE_POLICIES, help="reference policy")
     parser.add_argument("--task", help="task of a reference policy (default tool_delivery)")
-    parser.add_argument("--strategy", help="strategy of a reference policy (default continue)")
     parser.add_argument(
-        "--set",
-        nargs="*",
-        default=[],
-        metavar="KEY=VALUE",
-        help="task settings of a reference policy's environment, e.g. turtlebot_robot=diffbot",
+        "--strategy",
+        choices=[s.value for s in Strategy],
+        help="strategy of a reference policy (default continue)",
     )
-    parser.add_argument("--seed", type=int, default=0)
+    _settings_args(
+        parser,
+        "env.KEY=VALUE",
+        "task settings of a reference policy's environment, e.g. env.turtlebot_robot=diffbot",
+    )
+    parser.add_argument("--seed", type=at_least(0), default=0)
     parser.add_argument(
         "--sample",
         action="store_true",
@@ -57,18 +72,72 @@ def _policy_args(parser: argparse.ArgumentParser) -> None:
     )
 
 
+SETTING = re.compile(r"^([A-Za-z_][\w.]*)=")
+"""A ``key=value`` argument."""
+
+
+SETTINGS_COMMANDS = ("evaluate", "video", "reproduce")
+"""The subcommands that take ``key=value`` settings."""
+
+
+def _split_settings(argv: list[str]) -> tuple[list[str], list[str]]:
+    """``(settings, the rest)``: for a subcommand that takes settings, the ``key=value`` items
+    wherever they stand, so that a list option (``--methods a b``) does not swallow those after
+    it; a ``TASK=VALUE`` (a registered task's name: ``--threshold``'s values) is no setting."""
+    from maopg.tasks import task_names
+
+    command = next((item for item in argv if not item.startswith("-")), None)
+    if command not in SETTINGS_COMMANDS:
+        return [], argv
+    tasks = set(task_names())
+    settings = []
+    for item in argv:
+        match = SETTING.match(item)
+        if match and match.group(1) not in tasks:
+            settings.append(item)
+    return settings, [item for item in argv if item not in settings]
+
+
+def _settings_args(parser: argparse.ArgumentParser, metavar: str, text: str) -> None:
+    """The ``key=value`` arguments of a subcommand, and the retired ``--set`` (an error)."""
+    parser.add_argument("settings", nargs="*", default=[], metavar=metavar, help=text)
+    parser.add_argument("--set", nargs="*", default=None, help=argparse.SUPPRESS)
+
+
+def _retired_set(args: argparse.Namespace, prefix: str) -> None:
+    """``--set`` (an earlier release's spelling) is an error that shows the new one."""
+    if args.set is not None:
+        items = [item.removeprefix(prefix) for item in args.set or args.settings]
+        new = " ".join(prefix + item for item in items) or f"{prefix}KEY=VALUE"
+        raise ValueError(f"--set is retired: write the settings as arguments, {new}")
+
+
+def _task_settings(args: argparse.Namespace) -> dict[str, Any]:
+    """``env.KEY=VALUE`` arguments → a reference policy's task settings."""
+    from maopg.experiment.config import parse_task_settings
+
+    _retired_set(args, "env.")
+    for item in args.settings:
+        if not item.startswith("env."):
+            raise ValueError(
+                f"{item}: {args.command} takes task settings only, written env.KEY=VALUE"
+            )
+    return parse_task_settings([item.removeprefix("env.") for item in args.settings])
+
+
 def _policy_and_env(args: argparse.Namespace):
     """``(label, env, policy)`` for a checkpoint or a reference policy."""
     from maopg.env import make_env
     from maopg.env.rollout import reference_policy
-    from maopg.experiment.config import parse_task_settings
 
+    settings = _task_settings(args)
     if args.checkpoint is not None:
         from maopg.experiment.loading import load_trained
 
-        given = [f"--{k}" for k in ("task", "strategy", "set") if getattr(args, k)]
+        given = [f"--{k}" for k in ("task", "strategy") if getattr(args, k)]
+        given += ["env.KEY=VALUE"] if settings else []
         if given:
-            raise SystemExit(
+            raise ValueError(
                 f"{', '.join(given)}: a checkpoint brings its own task and strategy "
                 "(they apply to --reference policies only)"
             )
@@ -79,10 +148,6 @@ def _policy_and_env(args: argparse.Namespace):
         label = f"{c.method} seed{c.seed} @ {trained.samples} samples"
         return label, env, policy
     task = args.task or "tool_delivery"
-    try:
-        settings = parse_task_settings(args.set)
-    except ValueError as err:
-        raise SystemExit(f"--set: {err}") from None
     env = make_env(task, args.strategy or "continue", seed=args.seed, overrides=settings)
     return args.reference, env, reference_policy(args.reference, env, args.seed)
 
@@ -96,7 +161,9 @@ def _thresholds(items: list[str]) -> dict[str, float]:
             task, value = split_assignment(item)
             out[task] = float(value)
         except ValueError as err:
-            raise SystemExit(f"--threshold expects TASK=VALUE: {err}") from None
+            raise ValueError(f"--threshold expects TASK=VALUE: {err}") from None
+        if "." in task:
+            raise ValueError(f"--threshold {item}: {task!r} is no task name")
     return out
 
 
@@ -143,7 +210,7 @@ def cmd_plot(args: argparse.Namespace) -> int:
 
     runs = discover_runs(args.runs, unfinished=args.unfinished)
     if not runs:
-        raise SystemExit(f"no {_which(args)} run directories under {args.runs}")
+        raise ValueError(f"no {_which(args)} run directories under {args.runs}")
     for path in plot_all(
         runs, args.out, metric=args.metric, window=args.window, methods=args.methods
     ):
@@ -157,7 +224,7 @@ def cmd_table(args: argparse.Namespace) -> int:
 
     runs = discover_runs(args.runs, unfinished=args.unfinished)
     if not runs:
-        raise SystemExit(f"no {_which(args)} run directories under {args.runs}")
+        raise ValueError(f"no {_which(args)} run directories under {args.runs}")
     thresholds = _thresholds(args.threshold)
     text = (
         "## Peak performance\n\n"
@@ -177,6 +244,7 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     from maopg.experiment.reproduce import reproduce
     from maopg.experiment.studies import get_study, study_names
 
+    _retired_set(args, "")
     if args.list_studies:
         for name in study_names():
             study = get_study(name)
@@ -196,7 +264,8 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
         tasks=args.tasks,
         methods=args.methods,
         seeds=args.seeds,
-        overrides=args.set,
+        overrides=args.settings,
+        config_file=args.config,
         in_process=args.in_process,
         dry_run=args.dry_run,
     )
@@ -216,20 +285,20 @@ def build_parser() -> argparse.ArgumentParser:
     from maopg.experiment.studies import PAPER, study_names
     from maopg.tasks import task_entry, task_names
 
-    parser = argparse.ArgumentParser(prog=PROG, description=__doc__.split("\n")[0])
+    parser = Parser(prog=PROG, description=__doc__.split("\n")[0])
     add_common_options(parser)
     sub = parser.add_subparsers(dest="command", required=True)
 
     p = sub.add_parser("evaluate", help="mean ± std return etc. over N seeded episodes")
     _policy_args(p)
-    p.add_argument("--episodes", type=int, default=20)
+    p.add_argument("--episodes", type=at_least(1), default=20)
     p.add_argument("--json", type=Path, help="also write the result as JSON here")
     p.set_defaults(func=cmd_evaluate)
 
     p = sub.add_parser("video", help="record one episode as a headless MP4")
     _policy_args(p)
     p.add_argument("--out", type=Path, required=True)
-    p.add_argument("--fps", type=int, default=4)
+    p.add_argument("--fps", type=at_least(1), default=4)
     p.set_defaults(func=cmd_video)
 
     for name, func, text in (
@@ -286,12 +355,17 @@ def build_parser() -> argparse.ArgumentParser:
         + ", ".join(f"{t} {len(task_entry(t).grid_seeds)} seeds" for t in task_names())
         + ")",
     )
+    _settings_args(
+        p,
+        "key=value",
+        "train settings of every run, as on the train command line: num_envs=8, ppo.epochs=5, "
+        "env.max_ticks=100 (keep them identical across resumptions)",
+    )
     p.add_argument(
-        "--set",
-        nargs="*",
-        default=[],
-        metavar="KEY=VALUE",
-        help="train config overrides for every run (keep them identical across resumptions)",
+        "--config",
+        type=Path,
+        metavar="FILE",
+        help="a YAML or JSON settings file given to every run's train command line",
     )
     p.add_argument("--threshold", nargs="*", default=[], metavar="TASK=VALUE")
     p.add_argument("--window", type=int, default=5)
@@ -315,7 +389,10 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _run(argv: list[str], plugins: list[str]) -> int:
-    args = build_parser().parse_args(argv)
+    settings, rest = _split_settings(argv)
+    args = build_parser().parse_args(rest)
+    if settings:
+        args.settings = [*args.settings, *settings]
     return args.func(args)
 
 

@@ -16,9 +16,10 @@ it marks ``in_grid``).
 Runs are launched one after another as train command-line subprocesses (a crash or an
 out-of-memory kill loses one run, not the grid) or, with ``in_process=True``, by calling the
 train command line in this process (faster to start; used by the tests). An unknown task or
-method is an error before anything runs (a typo must not pass as an empty grid). ``overrides``
-(``key=value`` train config fields) apply to every run and must be the same on every invocation
-of a grid, because a resumed run refuses a config that differs from its saved one. Grid runs
+method is an error before anything runs (a typo must not pass as an empty grid), and so is a bad
+override. ``overrides`` (``key=value`` train settings, as on the train command line) and a
+``config_file`` apply to every run and must be the same on every invocation of a grid, because
+a resumed run refuses a config that differs from its saved one. Grid runs
 record no rollout video (``video=false``; ``python -m eval video`` makes one from any finished
 run).
 
@@ -77,11 +78,41 @@ def cell_state(run_dir: Path) -> str:
     return "new"
 
 
-def _train_args(cell: Cell, run_dir: Path, study: Study, overrides: Sequence[str]) -> list[str]:
+def check_cells(
+    cells: Sequence[Cell],
+    runs_root: Path,
+    study: Study,
+    overrides: Sequence[str],
+    config_file: Path | None,
+) -> None:
+    """Read each task and method's train command line as the cell would, before any cell runs
+    (``ValueError`` naming the cell and the setting): a bad override or config file must not
+    fail every cell one after another."""
+    from maopg.experiment.train_cli import parse_args
+
+    for cell in {(c.task, c.method): c for c in cells}.values():
+        args = _train_args(cell, cell.run_dir(runs_root), study, overrides, config_file)
+        try:
+            parse_args(args)[0].resolved()
+        except ValueError as err:
+            raise ValueError(
+                f"{cell.task}/{cell.method}: {err} (settings go to every cell)"
+            ) from None
+
+
+def _train_args(
+    cell: Cell,
+    run_dir: Path,
+    study: Study,
+    overrides: Sequence[str],
+    config_file: Path | None = None,
+) -> list[str]:
     """The cell's train command line: ``--resume`` for a partial run (on a new one it is an
     error, which catches a mistyped directory)."""
     resume = ["--resume"] if cell_state(run_dir) == "partial" else []
+    config = ["--config", str(config_file)] if config_file is not None else []
     return [
+        *config,
         "--task",
         cell.task,
         "--method",
@@ -101,10 +132,15 @@ def _train_args(cell: Cell, run_dir: Path, study: Study, overrides: Sequence[str
 
 
 def _launch(
-    cell: Cell, run_dir: Path, study: Study, overrides: Sequence[str], in_process: bool
+    cell: Cell,
+    run_dir: Path,
+    study: Study,
+    overrides: Sequence[str],
+    in_process: bool,
+    config_file: Path | None = None,
 ) -> str:
     """Train one cell to completion; returns ``done`` or ``failed: <why>``."""
-    args = _train_args(cell, run_dir, study, overrides)
+    args = _train_args(cell, run_dir, study, overrides, config_file)
     if in_process:
         from maopg.experiment.train_cli import main as train_main
 
@@ -131,6 +167,7 @@ def run_grid(
     methods: Sequence[str] | None = None,
     seeds: Sequence[int] | None = None,
     overrides: Sequence[str] = (),
+    config_file: str | Path | None = None,
     in_process: bool = False,
     dry_run: bool = False,
     log=print,
@@ -140,8 +177,9 @@ def run_grid(
     start`` / ``would resume``. ``tasks`` and ``methods`` default to the study's (the ``paper``
     study: every registered task, the grid's methods,
     :func:`~maopg.experiment.methods.grid_method_names`), ``seeds`` replaces every task's
-    seeds. Raises ``ValueError`` for a task or method that is not registered or not part of
-    the study."""
+    seeds; ``overrides`` (``key=value``) and ``config_file`` (a YAML or JSON settings file) go
+    to every cell's train command line. Raises ``ValueError`` for a task or method that is not
+    registered or not part of the study, or a bad override."""
     study = get_study(study) if isinstance(study, str) else study
     tasks = list(tasks) if tasks is not None else [t.task for t in study.tasks]
     methods = list(methods) if methods is not None else list(study.methods)
@@ -153,6 +191,7 @@ def run_grid(
         if unknown:
             what = f"{kind}(s) {unknown} not in study {study.name!r}" if kind == "task" else ""
             raise ValueError(f"{what or f'unknown {kind}(s) {unknown}'}; choose from {known}")
+    config_file = Path(config_file).resolve() if config_file is not None else None
     runs_root = Path(runs_root).resolve()
     outcomes: dict[Cell, str] = {}
     # Seed-major: an interrupted grid has every method at the same number of seeds.
@@ -162,6 +201,7 @@ def run_grid(
         for s in (seeds if seeds is not None else study.task(t).seeds)
         for m in methods
     ]
+    check_cells(cells, runs_root, study, overrides, config_file)
     for k, cell in enumerate(cells, 1):
         run_dir = cell.run_dir(runs_root)
         state = cell_state(run_dir)
@@ -172,7 +212,7 @@ def run_grid(
             outcomes[cell] = "would resume" if state == "partial" else "would start"
         else:
             log(f"{name}: {'resuming' if state == 'partial' else 'starting'} in {run_dir}")
-            outcomes[cell] = _launch(cell, run_dir, study, overrides, in_process)
+            outcomes[cell] = _launch(cell, run_dir, study, overrides, in_process, config_file)
         log(f"{name}: {outcomes[cell]}")
     return outcomes
 

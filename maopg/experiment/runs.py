@@ -29,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from maopg.experiment.config_file import read_config_file
 from maopg.experiment.run_dir import CONFIG, DONE, METRICS
 
 RETURN = "episode_return"
@@ -75,7 +76,10 @@ def load_run(run_dir: str | Path) -> RunData:
     """Read ``config.json`` and ``metrics.csv`` of one run directory (a run that has not
     finished an iteration yet has a header and no rows: empty curves)."""
     run_dir = Path(run_dir)
-    config = json.loads((run_dir / CONFIG).read_text())
+    config = read_config_file(run_dir / CONFIG)
+    missing = [key for key in ("task", "method", "seed") if key not in config]
+    if missing:
+        raise ValueError(f"{run_dir / CONFIG} lacks {missing}")
     with (run_dir / METRICS).open(newline="") as handle:
         reader = csv.DictReader(handle)
         rows = list(reader)

@@ -214,10 +214,13 @@ def train(config: TrainConfig, *, resume: bool = False, overwrite: bool = False)
     """Train ``config`` (resolved here) and return the run directory.
 
     Everything that can be checked is checked before the first file is written — the config,
-    the run directory, the networks and learner it builds — so a failed start leaves nothing
-    that blocks the corrected command.
+    whether the machine can render what the run renders, the run directory, the networks and
+    learner it builds — so a failed start leaves nothing that blocks the corrected command.
     """
     config = config.resolved()
+    problem = config.rendering_problem()
+    if problem:
+        raise ValueError(problem)
     saved = _check_run_dir(config, resume, overwrite)
     run_dir = Path(config.run_dir)  # type: ignore[arg-type]
     checkpoint_path = run_dir / CHECKPOINT

@@ -10,10 +10,9 @@ termination strategy and a policy builder (``maopg.experiment.methods``).
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from abc import ABC, abstractmethod
-from collections.abc import Callable, Collection
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
@@ -62,18 +61,6 @@ def require_finite_parameters(module: nn.Module, what: str) -> None:
     """:func:`require_finite` over every parameter of ``module`` (after an optimiser step)."""
     for name, parameter in module.named_parameters():
         require_finite(parameter.detach(), f"{what}'s parameter {name}")
-
-
-def check_numbers(config: Any, section: str, unbounded: Collection[str] = ()) -> None:
-    """Reject NaN in every float field of a learner's config section (it is never a setting:
-    it turns every weight into NaN), and ±inf except in ``unbounded``: limits such as a clip
-    range or a gradient-norm bound, where inf means "no limit"."""
-    for item in dataclasses.fields(config):
-        value = getattr(config, item.name)
-        if isinstance(value, float) and (
-            math.isnan(value) or (math.isinf(value) and item.name not in unbounded)
-        ):
-            raise ValueError(f"{section}.{item.name} must be a finite number, got {value}")
 
 
 @dataclass(frozen=True)

@@ -28,7 +28,6 @@ from maopg.learner.base import (
     Actor,
     Learner,
     LearnerSetup,
-    check_numbers,
     episode_metrics,
     require_finite,
     require_finite_parameters,
@@ -46,47 +45,35 @@ from maopg.policy import (
     PartiallyCentralizedPolicy,
     stack_conditions,
 )
+from maopg.settings import Settings, setting
 
 
 @dataclass(frozen=True)
-class PPOConfig:
+class PPOConfig(Settings):
     """MAPPO's hyper-parameters: the config section ``ppo`` (defaults: the MAPPO reference,
     docs/DESIGN.md §5). The discount γ is the run's ``gamma`` (it also discounts the
-    environment's rewards), the network size its ``hidden`` and ``layers``."""
+    environment's rewards), the network size its ``hidden`` and ``layers``. Each field declares
+    its bounds (:mod:`maopg.settings`); inf means "no limit" for the clip ranges and bounds."""
 
-    epochs: int = 10
-    num_minibatches: int = 1
-    clip: float = 0.2
-    value_clip: float = 0.2
-    huber_delta: float = 10.0
+    PREFIX: ClassVar[str] = "ppo."
+
+    epochs: int = setting(10, ge=1)
+    num_minibatches: int = setting(1, ge=1)
+    clip: float = setting(0.2, ge=0.0, infinite=True)
+    value_clip: float = setting(0.2, ge=0.0, infinite=True)
+    huber_delta: float = setting(10.0, gt=0.0, infinite=True)
     ent_coef: float = 0.01
-    value_coef: float = 1.0
-    lr: float = 5e-4
-    critic_lr: float = 5e-4
-    adam_eps: float = 1e-5
-    max_grad_norm: float = 10.0
+    value_coef: float = setting(1.0, ge=0.0)
+    lr: float = setting(5e-4, gt=0.0)
+    critic_lr: float = setting(5e-4, gt=0.0)
+    adam_eps: float = setting(1e-5, ge=0.0)
+    max_grad_norm: float = setting(10.0, gt=0.0, infinite=True)
     normalize_advantages: bool = True
-    gae_lambda: float = 0.95
-    discount: str = DiscountForm.SMDP.value
+    gae_lambda: float = setting(0.95, ge=0.0, le=1.0)
+    discount: str = setting(DiscountForm.SMDP.value, choices=[f.value for f in DiscountForm])
     """``smdp`` (γ^k per option step, default) or ``option`` (the paper's γ per option step)."""
     value_norm: bool = True
     """Running mean/var normalisation of the critic's targets."""
-
-    def validate(self) -> None:
-        check_numbers(self, "ppo", unbounded=("clip", "value_clip", "huber_delta", "max_grad_norm"))
-        for key in ("lr", "critic_lr"):
-            if getattr(self, key) <= 0.0:
-                raise ValueError(f"ppo.{key} must be > 0, got {getattr(self, key)}")
-        if self.adam_eps < 0.0:
-            raise ValueError(f"ppo.adam_eps must be >= 0, got {self.adam_eps}")
-        for key in ("epochs", "num_minibatches"):
-            if getattr(self, key) < 1:
-                raise ValueError(f"ppo.{key} must be >= 1, got {getattr(self, key)}")
-        if not 0.0 <= self.gae_lambda <= 1.0:
-            raise ValueError(f"ppo.gae_lambda must lie in [0, 1], got {self.gae_lambda}")
-        forms = [f.value for f in DiscountForm]
-        if self.discount not in forms:
-            raise ValueError(f"ppo.discount must be one of {forms}, got {self.discount!r}")
 
 
 @dataclass

@@ -48,7 +48,10 @@ class NatureCNN(nn.Module):
         super().__init__()
         height, width, channels = image_shape
         if min(height, width) < self.MIN_SIZE or channels != 3:
-            raise ValueError(f"NatureCNN needs RGB images of at least 36x36, got {image_shape}")
+            raise ValueError(
+                f"NatureCNN needs RGB images of at least {self.MIN_SIZE}x{self.MIN_SIZE} "
+                f"(image_size >= {self.MIN_SIZE}), got {image_shape}"
+            )
         self.image_shape = tuple(image_shape)
         self.convs = nn.Sequential(
             nn.Conv2d(3, 32, kernel_size=8, stride=4),

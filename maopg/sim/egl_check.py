@@ -3,16 +3,82 @@
 Run by ``scripts/setup.sh``: ``python -m maopg.sim.egl_check``. Exits 1 with the ``apt-get``
 line for the missing Debian/Ubuntu packages, so a fresh machine fails early and clearly instead
 of deep inside the first render.
+
+:func:`gl_problem` is the same diagnosis without a GL context — the ``MUJOCO_GL`` backend, its
+library, a display for ``glfw`` — which a run that will render checks before it writes
+anything, and :func:`exit_if_mujoco_cannot_import` the part of it that stops ``import mujoco``
+itself, which the command lines check before they import anything that imports MuJoCo. Neither
+imports MuJoCo.
 """
 
 from __future__ import annotations
 
 import ctypes.util
+import functools
+import importlib.util
+import os
 import sys
 
 import maopg  # noqa: F401  (sets MUJOCO_GL=egl before mujoco is imported)
 
 APT_LINE = "sudo apt-get update && sudo apt-get install -y libegl1 libegl-mesa0 libgl1-mesa-dri"
+
+
+GL_BACKENDS = ("egl", "osmesa", "glfw")
+"""The ``MUJOCO_GL`` values maopg renders with (``egl`` headless, the default)."""
+
+
+@functools.cache
+def _found(library: str) -> bool:
+    """Whether the shared library is installed (``find_library`` runs ``ldconfig``: cached)."""
+    return ctypes.util.find_library(library) is not None
+
+
+def _backend() -> str:
+    return os.environ.get("MUJOCO_GL", "").lower().strip()
+
+
+def import_problem() -> str | None:
+    """Why ``import mujoco`` would fail under this ``MUJOCO_GL`` (a value MuJoCo does not know,
+    ``osmesa`` without libOSMesa: PyOpenGL then fails inside MuJoCo's import, ``glfw`` without
+    its Python package), or ``None``."""
+    gl = _backend()
+    if gl not in GL_BACKENDS:
+        return f"MUJOCO_GL={gl!r}: maopg renders with MUJOCO_GL one of {list(GL_BACKENDS)}"
+    if gl == "osmesa" and not _found("OSMesa"):
+        return (
+            "MUJOCO_GL=osmesa, but libOSMesa is not installed (sudo apt-get install "
+            "libosmesa6); headless rendering works with MUJOCO_GL=egl"
+        )
+    if gl == "glfw" and importlib.util.find_spec("glfw") is None:
+        return "MUJOCO_GL=glfw needs the glfw package (pip install glfw)"
+    return None
+
+
+def gl_problem() -> str | None:
+    """Why MuJoCo cannot render offscreen under this ``MUJOCO_GL``, found without creating a
+    context (:func:`import_problem`, libEGL missing, ``glfw`` without a display), or ``None``."""
+    problem = import_problem()
+    if problem is not None:
+        return problem
+    gl = _backend()
+    if gl == "glfw" and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+        return (
+            "MUJOCO_GL=glfw needs a display, and neither DISPLAY nor WAYLAND_DISPLAY is set; "
+            "headless rendering works with MUJOCO_GL=egl"
+        )
+    if gl == "egl" and not _found("EGL"):
+        return f"MUJOCO_GL=egl, but libEGL was not found; install it: {APT_LINE}"
+    return None
+
+
+def exit_if_mujoco_cannot_import(prog: str) -> None:
+    """End the process with ``prog: error: ...`` and status 2 where ``import mujoco`` would fail
+    (:func:`import_problem`): a command line's one line instead of PyOpenGL's traceback."""
+    problem = import_problem()
+    if problem is not None:
+        print(f"{prog}: error: {problem}", file=sys.stderr)
+        sys.exit(2)
 
 
 def check() -> str:

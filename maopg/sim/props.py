@@ -1,4 +1,5 @@
-"""Runtime handles for props whose looks follow task state, and arena layout look-ups.
+"""Runtime handles for props whose looks follow task state, and arena layout look-ups (sites,
+the floor's extent).
 
 A jar's water level is shown by rewriting its liquid geom's half-height and centre in the
 compiled model (``geom_size``/``geom_pos`` are mutable), so every camera sees the level without
@@ -7,6 +8,8 @@ recompiling. The liquid is a visual-only geom, so this never changes the physics
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import mujoco
@@ -72,3 +75,34 @@ def layout_sites(arena: str | Path | mujoco.MjModel, prefix: str = "") -> dict[s
         for i in range(model.nsite)
         if model.site(i).name.startswith(prefix)
     }
+
+
+@dataclass(frozen=True)
+class Floor:
+    """The rectangle an arena's ``floor`` plane covers (m): where a robot may stand."""
+
+    low: tuple[float, float]
+    high: tuple[float, float]
+
+    @property
+    def half_extent(self) -> tuple[float, float]:
+        return ((self.high[0] - self.low[0]) / 2, (self.high[1] - self.low[1]) / 2)
+
+    def require_inside(self, setting: str, xy: Sequence[float]) -> None:
+        """``ValueError`` naming ``setting`` unless the planar point ``xy`` lies on the floor:
+        a task checks the positions its config sets before it compiles its scene."""
+        if not all(lo <= v <= hi for v, lo, hi in zip(xy, self.low, self.high, strict=True)):
+            raise ValueError(
+                f"{setting}={tuple(xy)} lies outside the arena: x must be in "
+                f"[{self.low[0]:g}, {self.high[0]:g}] and y in [{self.low[1]:g}, {self.high[1]:g}]"
+            )
+
+
+def arena_floor(arena: str | Path | mujoco.MjModel) -> Floor:
+    """The :class:`Floor` of an arena MJCF or compiled model (its geom named ``floor``, a plane
+    or a box)."""
+    model = arena if isinstance(arena, mujoco.MjModel) else mujoco.MjModel.from_xml_path(str(arena))
+    floor = model.geom("floor")
+    centre, half = floor.pos[:2], floor.size[:2]
+    low, high = centre - half, centre + half
+    return Floor((float(low[0]), float(low[1])), (float(high[0]), float(high[1])))

@@ -4,16 +4,25 @@ Measured on CPU (llvmpipe, docs/DESIGN.md §2): shadows cost ~20x and 4x multisa
 frame, so observation cameras render with both off; videos keep the nicer settings. Creating
 one GL context per camera is slower than re-pointing a single renderer, and the output array
 is preallocated so a batch of observations costs no allocation.
+
+A renderer still open when the interpreter exits (an error unwound past its owner's ``close``)
+is closed by an exit hook that runs before MuJoCo's own, which terminates the EGL display:
+freed later, each context would print two ``EGLError`` tracebacks under the real error.
 """
 
 from __future__ import annotations
 
+import atexit
+import functools
+import os
+import weakref
 from collections.abc import Sequence
 
 import mujoco
 import numpy as np
 
 import maopg  # noqa: F401  (sets MUJOCO_GL=egl before mujoco renders)
+from maopg.sim.egl_check import gl_problem
 
 
 def _fit_offscreen_buffer(model: mujoco.MjModel, height: int, width: int) -> None:
@@ -34,15 +43,43 @@ def _make_renderer(
     model: mujoco.MjModel, height: int, width: int, *, shadows: bool, offsamples: int
 ) -> mujoco.Renderer:
     _fit_offscreen_buffer(model, height, width)
+    failed = f"cannot render {width}x{height} frames with MUJOCO_GL={os.environ.get('MUJOCO_GL')}"
+    problem = gl_problem()  # before GL is touched: a GLFW without a display warns, then fails
+    if problem is not None:
+        raise RenderError(f"{failed}: {problem}")
     saved = int(model.vis.quality.offsamples)
     model.vis.quality.offsamples = offsamples  # read once, when the GL context is made
     try:
         renderer = mujoco.Renderer(model, height, width)
+    except Exception as exc:  # MuJoCo and PyOpenGL raise several types, by backend
+        raise RenderError(f"{failed}: {exc}") from exc
     finally:
         model.vis.quality.offsamples = saved
     renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = shadows
     renderer.scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = shadows
     return renderer
+
+
+class RenderError(RuntimeError):
+    """MuJoCo could not make a renderer: the machine's GL setup (``MUJOCO_GL``, its libraries,
+    a display) or a frame size it cannot hold, not the code — a user error on a command line."""
+
+
+_OPEN: weakref.WeakSet[CameraRenderer] = weakref.WeakSet()
+"""Every renderer not closed yet."""
+
+
+def close_all() -> None:
+    """Close every renderer still open (the exit hook; see the module docstring)."""
+    for renderer in list(_OPEN):
+        renderer.close()
+
+
+@functools.cache
+def _close_all_at_exit() -> None:
+    """Register :func:`close_all` once, after the first GL context was made: exit hooks run
+    last-registered first, so it runs before the EGL teardown MuJoCo registered then."""
+    atexit.register(close_all)
 
 
 class CameraRenderer:
@@ -61,6 +98,8 @@ class CameraRenderer:
         self._renderer = _make_renderer(
             model, height, width, shadows=not fast, offsamples=offsamples
         )
+        _OPEN.add(self)
+        _close_all_at_exit()
 
     def render(
         self,

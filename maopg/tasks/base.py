@@ -10,6 +10,22 @@ and the registry-wide contract test (``tests/tasks/test_contract.py``) for free.
 Its options are written against protocols of the options layer (:mod:`maopg.options.base`),
 which the task implements; observation vectors follow the task's named
 :class:`~maopg.tasks.layout.ObsLayout` per agent.
+
+A task's settings are a frozen dataclass deriving from :class:`TaskConfig` (or
+:class:`SceneTaskConfig`), a :class:`maopg.settings.Settings`: each field declares its kind by
+its annotation and its bounds with :func:`maopg.settings.setting`, checked once when the config
+is made, before anything is built::
+
+    @dataclass(frozen=True)
+    class Config(SceneTaskConfig):
+        max_ticks: int = 200                       # keeps TaskConfig's bound (>= 1)
+        robots: int = setting(2, ge=1, le=8)       # a team size
+        spot: tuple[float, float] = (1.0, 2.0)     # two numbers; JSON lists become tuples
+        step_reward: float = -1.0                  # any finite number
+
+so ``env.robots=0`` fails with ``env.robots must be >= 1, got 0``. Relations between fields go
+in ``validate()`` (call ``super().validate()`` first); a check that needs the task's world (a
+position inside the arena) belongs in the task's constructor, before it compiles its scene.
 """
 
 from __future__ import annotations
@@ -17,27 +33,58 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
 from maopg.options.base import Option
+from maopg.settings import Settings, setting
 from maopg.sim.render import CameraRenderer
 from maopg.sim.robots.base import RobotAdapter
 from maopg.sim.scene import Scene
 from maopg.tasks.layout import ObsLayout
 
+MAX_IMAGE_SIZE = 4096
+"""The largest camera image (px a side) a config accepts: far beyond what an observation needs,
+and within what every GL implementation renders offscreen (OpenGL 3.3 guarantees 4096-pixel
+render targets; Mesa's llvmpipe allows 16384)."""
+
 
 @dataclass(frozen=True)
-class TaskConfig:
-    """Settings shared by every task; tasks extend it with their own fields."""
+class TaskConfig(Settings):
+    """Settings shared by every task; tasks extend it with their own fields. Command lines and
+    config files write them ``env.NAME``."""
 
-    max_ticks: int = 150
+    PREFIX: ClassVar[str] = "env."
+
+    max_ticks: int = setting(150, ge=1)
     images: bool = False
     """Render each agent's camera into the observation."""
-    image_size: int = 64
+    image_size: int = setting(64, ge=1, le=MAX_IMAGE_SIZE)
     primitive: bool = False
     """Give agents one-tick primitive actions instead of options (end2end baseline)."""
+
+
+@dataclass(frozen=True)
+class SceneTaskConfig(TaskConfig):
+    """The settings of a task that ticks a MuJoCo scene: a tick is a whole number of physics
+    steps (the scene refuses anything else mid-episode, so the config refuses it up front)."""
+
+    tick_seconds: float = setting(1.0, gt=0.0)
+    """Simulated time of one tick, one low-level step (s)."""
+    timestep: float = setting(0.002, gt=0.0)
+    """Physics step (s)."""
+
+    def validate(self) -> None:
+        super().validate()
+        steps = round(self.tick_seconds / self.timestep)
+        if steps < 1 or abs(steps * self.timestep - self.tick_seconds) > 1e-6 * max(
+            1.0, self.tick_seconds
+        ):
+            raise ValueError(
+                f"env.tick_seconds={self.tick_seconds} is not a whole number of "
+                f"env.timestep={self.timestep} physics steps"
+            )
 
 
 class Task(ABC):

@@ -31,6 +31,7 @@ import numpy as np
 from gymnasium import spaces
 
 from maopg.options.base import Execution, Option
+from maopg.settings import setting
 from maopg.tasks.base import Task, TaskConfig
 from maopg.tasks.layout import ObsLayout
 from maopg.tasks.registry import TaskEntry, register_task
@@ -45,7 +46,7 @@ class PettingZooConfig(TaskConfig):
     env: str = ""
     """``"module:factory"`` returning the ``ParallelEnv`` (an env module's ``parallel_env``)."""
     env_kwargs: Mapping[str, Any] = field(default_factory=dict)
-    reward: str = "mean"
+    reward: str = setting("mean", choices=("mean", "sum"))
     """``mean`` or ``sum`` of the agents' rewards: the team's reward per tick."""
     busy_key: str = "busy"
     """Info key that marks an agent still executing its last action (it then continues)."""
@@ -86,8 +87,6 @@ class PettingZooTask(Task):
     tick_seconds = 1.0
 
     def __init__(self, config: PettingZooConfig) -> None:
-        if config.reward not in ("mean", "sum"):
-            raise ValueError(f"reward must be 'mean' or 'sum', got {config.reward!r}")
         if config.images:
             raise ValueError(f"task {config.task_name!r} has no cameras: images=false")
         self.config = config

@@ -8,7 +8,8 @@ attributes allowed: ``"pkg.task:MyTask.Config"``), imported on first use, so reg
 imports none of its simulation code.
 
 ``make_config`` validates overrides against the config's fields, so a typo fails loudly with the
-list of valid keys instead of being silently ignored.
+list of valid keys instead of being silently ignored; the config checks each value's kind and
+bounds itself (:class:`maopg.settings.Settings`).
 """
 
 from __future__ import annotations
@@ -153,8 +154,9 @@ def task_class(name: str) -> type[Task]:
 
 def make_config(name: str, overrides: Mapping[str, Any] | None = None) -> TaskConfig:
     """The task's default config (its registration's ``defaults`` applied) with ``overrides``
-    applied. Unknown keys are an error, and so is a value of another kind than a boolean,
-    integer, number or string default (``max_ticks="abc"`` would otherwise fail mid-episode)."""
+    applied. Unknown keys are an error, and so is a value of the wrong kind or out of the
+    field's declared bounds (:class:`maopg.settings.Settings`: ``max_ticks="abc"`` would
+    otherwise fail mid-episode)."""
     entry = task_entry(name)
     config = entry.config_class()()
     overrides = {**entry.defaults, **(overrides or {})}
@@ -164,23 +166,7 @@ def make_config(name: str, overrides: Mapping[str, Any] | None = None) -> TaskCo
         raise ValueError(
             f"unknown config key(s) {unknown} for task {name!r}; valid keys: {sorted(fields)}"
         )
-    for key, value in overrides.items():
-        kind = _scalar_kind(getattr(config, key))
-        if kind is not None and _scalar_kind(value) not in _ACCEPTED[kind]:
-            raise ValueError(f"task {name!r}: {key} expected {kind}, got {value!r}")
     return dataclasses.replace(config, **overrides)
-
-
-_ACCEPTED = {"bool": ("bool",), "int": ("int",), "float": ("int", "float"), "str": ("str",)}
-"""The kinds of value a default of each kind accepts (a bool is no int here)."""
-
-
-def _scalar_kind(value: Any) -> str | None:
-    """``bool``, ``int``, ``float``, ``str``, or ``None`` for anything else."""
-    for cls in (bool, int, float, str):
-        if isinstance(value, cls):
-            return cls.__name__
-    return None
 
 
 def load(name: str, overrides: Mapping[str, Any] | None = None) -> Task:

@@ -142,7 +142,7 @@ def test_user_errors_are_one_line(user_error, monkeypatch):
 
     registry.register_task("plain_berries", BerryField, config=BerryConfig)
     reference = ["evaluate", "--episodes", "1", "--reference"]
-    bad_robot = [*reference, "random", "--task", "water_filling", "--set", "drone_robot=nope"]
+    bad_robot = [*reference, "random", "--task", "water_filling", "env.drone_robot=nope"]
     user_error(eval_main, bad_robot, "unknown robot 'nope'")
     user_error(eval_main, ["--import", "no_such_module", "plot", "runs"], "no_such_module")
     no_script = [*reference, "scripted", "--task", "plain_berries"]
@@ -157,7 +157,7 @@ def test_check_robot_runs_a_users_robot_through_the_eval_command_line(capsys):
     assert eval_main([*argv, "--role", "drone"]) == 1  # a base cannot fly
     assert "FAIL" in capsys.readouterr().out
     swap = ["--import", "examples.robots.user_robots", "evaluate", "--reference", "random"]
-    swap += ["--task", "water_filling", "--set", "drone_robot=quadrotor", "max_ticks=20"]
+    swap += ["--task", "water_filling", "env.drone_robot=quadrotor", "env.max_ticks=20"]
     assert eval_main([*swap, "--episodes", "1"]) == 0
     assert "| random | water_filling |" in capsys.readouterr().out
 

@@ -145,7 +145,7 @@ def test_resume_checks_the_checkpoint_against_the_run(tmp_path, finished, user_e
     ("typo", "named"),
     [
         ("env.max_tikcs=5", "max_tikcs"),
-        ("env.max_ticks=many", "max_ticks expected int"),
+        ("env.max_ticks=many", r"env\.max_ticks expected int"),
         ("layers=0", "layers must be >= 1"),
         ("ppo.lr=-1", r"ppo\.lr must be > 0"),
     ],

@@ -112,7 +112,7 @@ def test_flat_mappo_keys_are_deprecated_aliases_and_old_configs_load(capsys):
     config, _ = parse_args(["--method", "async", "epochs=3", "lr=1e-3"])
     assert config.learner == PPOConfig(epochs=3, lr=1e-3)
     assert "deprecated" in capsys.readouterr().err
-    with pytest.raises(SystemExit):
+    with pytest.raises(ValueError, match="is a MAPPO hyper-parameter"):
         parse_args(["--method", "mac-dqn", "epochs=3"])  # Mac-DQN has no MAPPO section
     # a config.json written before sections existed: flat MAPPO keys, a dqn section everywhere
     legacy = {**TrainConfig().to_dict(), "epochs": 7, "discount": "option", "dqn": {"lr": 1.0}}

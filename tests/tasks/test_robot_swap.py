@@ -48,7 +48,7 @@ def test_the_eval_cli_swaps_robots_by_config(capsys) -> None:
     from maopg.experiment.eval_cli import main
 
     argv = ["evaluate", "--reference", "scripted", "--episodes", "1"]
-    main([*argv, "--set", "turtlebot_robot=diffbot"])
+    assert main([*argv, "env.turtlebot_robot=diffbot"]) == 0
     out = capsys.readouterr().out
     assert "| scripted | tool_delivery | continue | 1 |" in out and "| 100% |" in out
 

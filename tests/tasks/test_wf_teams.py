@@ -214,9 +214,9 @@ def test_cameras_render_only_the_robots_that_choose(monkeypatch) -> None:
 @pytest.mark.parametrize(
     ("overrides", "message"),
     [
-        ({"vehicles": 0}, r"vehicles must be an integer >= 1, got 0"),
-        ({"drones": -1}, r"drones must be an integer >= 1, got -1"),
-        ({"jars": 0}, r"jars must be an integer >= 1, got 0"),
+        ({"vehicles": 0}, r"env.vehicles must be >= 1, got 0"),
+        ({"drones": -1}, r"env.drones must be >= 1, got -1"),
+        ({"jars": 0}, r"env.jars must be >= 1, got 0"),
         (
             {"vehicles": 2, "vehicle_start": (0.0, 0.0)},
             r"vehicle_start sets the start of the only vehicle; with vehicles=2",
@@ -233,9 +233,9 @@ def test_the_command_line_names_a_bad_team_setting_in_one_line(capsys) -> None:
     from maopg.experiment.eval_cli import main
 
     argv = ["evaluate", "--reference", "random", "--task", "water_filling", "--episodes", "1"]
-    assert main([*argv, "--set", "jars=0"]) == 2
+    assert main([*argv, "env.jars=0"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert err == [f"{err[0].split(':')[0]}: error: jars must be an integer >= 1, got 0"]
+    assert err == [f"{err[0].split(':')[0]}: error: env.jars must be >= 1, got 0"]
 
 
 def test_one_start_setting_still_moves_the_only_robot_of_its_kind() -> None:

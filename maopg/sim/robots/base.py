@@ -11,14 +11,19 @@ Conventions an adapter relies on:
 * every name in a robot MJCF is local (``base``, ``camera``); the scene attaches the robot with
   the prefix ``"<prefix>/"``, so the adapter looks up ``f"{prefix}/{local}"``;
 * the scene rotates the attachment frame by the spawn yaw, so a planar base's slide joints are
-  expressed in that rotated frame; :class:`PlanarGroundAdapter` undoes it when commanding.
+  expressed in that rotated frame; :class:`PlanarGroundAdapter` undoes it when commanding;
+* the set-point commands a role declares (``COMMANDS``: ``drive_to``, ``fly_to``, ...) refuse
+  NaN and infinity with a ``ValueError`` naming the robot and the command, in every adapter of
+  the role, a user's included: a NaN target would otherwise reach the servos (a drone climbed
+  to 11 m on one) instead of failing where it was made.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 from abc import ABC, abstractmethod
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
@@ -31,8 +36,47 @@ def wrap_angle(angle: float) -> float:
     return (angle + math.pi) % (2.0 * math.pi) - math.pi
 
 
+def _finite_command(command: Callable[..., Any]) -> Callable[..., Any]:
+    """``command`` refusing any argument that holds NaN or ±inf (``None`` passes)."""
+
+    @functools.wraps(command)
+    def checked(self: RobotAdapter, *args: Any, **kwargs: Any) -> Any:
+        for value in (*args, *kwargs.values()):
+            if value is not None and not np.isfinite(np.asarray(value, dtype=float)).all():
+                shown = ", ".join(
+                    [repr(_plain(a)) for a in args]
+                    + [f"{k}={_plain(v)!r}" for k, v in kwargs.items()]
+                )
+                raise ValueError(
+                    f"robot {self.prefix!r} ({type(self).__name__}): {command.__name__}({shown}) "
+                    "needs finite set-points"
+                )
+        return command(self, *args, **kwargs)
+
+    checked.finite_checked = True  # type: ignore[attr-defined]
+    return checked
+
+
+def _plain(value: Any) -> Any:
+    """A number or a tuple of numbers, for the error line (arrays print their dtype)."""
+    if isinstance(value, np.ndarray | list | tuple):
+        return tuple(float(v) for v in np.asarray(value, dtype=float).ravel())
+    return float(value)
+
+
 class RobotAdapter(ABC):
     """Binds one attached robot instance (its name prefix) inside a compiled scene."""
+
+    COMMANDS: ClassVar[tuple[str, ...]] = ()
+    """The role's set-point methods: each implementation is checked for finite arguments
+    (module docstring)."""
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        for name in cls.COMMANDS:
+            command = cls.__dict__.get(name)
+            if callable(command) and not getattr(command, "finite_checked", False):
+                setattr(cls, name, _finite_command(command))
 
     #: None: ``apply()`` runs once per ``Scene.advance`` call (one tick); else at this rate (Hz).
     control_hz: ClassVar[float | None] = None
@@ -142,6 +186,8 @@ class RobotAdapter(ABC):
 class GroundAdapter(RobotAdapter):
     """A robot that moves on the floor plane: turtlebot, vehicle, the swap-demo robot."""
 
+    COMMANDS = ("drive_to", "set_velocity")
+
     @property
     def max_speed(self) -> float:
         return float(self.constants.max_speed)
@@ -166,6 +212,8 @@ class DroneAdapter(RobotAdapter):
     its constants give ``max_speed``.
     """
 
+    COMMANDS = ("fly_to",)
+
     @abstractmethod
     def fly_to(
         self, xyz: Sequence[float], speed: float | None = None, yaw: float | None = None
@@ -183,6 +231,7 @@ class ArmAdapter(RobotAdapter):
     #: Local name of the body a grasped object is welded to. A class attribute, because a
     #: scene declares its welds before it is compiled, i.e. before any adapter exists.
     gripper: ClassVar[str] = "gripper"
+    COMMANDS = ("set_arm_targets", "ik")
 
     @property
     def gripper_body(self) -> str:

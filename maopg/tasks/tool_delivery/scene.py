@@ -15,6 +15,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from maopg.sim.assets import ASSETS_DIR
+from maopg.sim.props import arena_floor
 from maopg.sim.robots import ArmAdapter, get_robot
 from maopg.sim.scene import Scene, SceneBuilder
 from maopg.tasks.tool_delivery.config import Config
@@ -92,6 +93,10 @@ def build_scene(config: Config, turtlebot_starts: Sequence[tuple[float, float]] 
     """Compile the scene (Turtlebots at the team's starts unless given); each tool may rest in
     the world, in any Fetch's gripper or in any Turtlebot's basket."""
     team = Team.of(config)
+    floor = arena_floor(ARENA)  # the settings place bay 0's arm and desk spots
+    floor.require_inside("env.fetch_base", config.fetch_base)
+    for w, spot in enumerate(config.desk_spots):
+        floor.require_inside(f"env.desk_spots[{w}]", spot)
     builder = SceneBuilder(ARENA, timestep=config.timestep, render_size=config.image_size)
     if not team.canonical_arena:
         grow_arena(builder, team)

@@ -5,11 +5,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from maopg.tasks.base import TaskConfig
+from maopg.settings import setting
+from maopg.tasks.base import SceneTaskConfig
 
 
 @dataclass(frozen=True)
-class Config(TaskConfig):
+class Config(SceneTaskConfig):
     """Water Filling settings (docs/DESIGN.md §7 defaults)."""
 
     max_ticks: int = 300
@@ -19,11 +20,11 @@ class Config(TaskConfig):
     arena: str = "arenas/water_filling.xml"
     # Team size (maopg.tasks.water_filling.team): the room is tiled from ``arena`` to fit them;
     # ``vehicle_start`` / ``drone_start`` apply only to a team with one vehicle / one drone.
-    vehicles: int = 1
+    vehicles: int = setting(1, ge=1)
     """Ground vehicles (agents ``vehicle``, or ``vehicle0``.. when several); at least 1."""
-    drones: int = 1
+    drones: int = setting(1, ge=1)
     """Drones (agents ``drone``, or ``drone0``.. when several); at least 1."""
-    jars: int = 3
+    jars: int = setting(3, ge=1)
     """Jars to keep filled; at least 1."""
     vehicle_robot: str = "vehicle"
     drone_robot: str = "drone"
@@ -31,24 +32,24 @@ class Config(TaskConfig):
     """Planar start of the vehicle (default: the arena's ``spawn_vehicle`` site)."""
     drone_start: tuple[float, float] | None = None
     """Planar start of the drone (default: ``spawn_drone``); it starts hovering at cruise."""
-    cruise_altitude: float = 1.5
-    interval_scale: tuple[int, int] = (5, 15)
+    cruise_altitude: float = setting(1.5, gt=0.0)
+    interval_scale: tuple[int, int] = setting((5, 15), ge=1, increasing=True)
     """Exponential scale of a jar's drop interval: ``rng.integers(low, high)`` ticks."""
-    drop_mean_per_tick: float = 1.0 / 500.0
-    drop_std: float = 0.2
-    fill_radius: float = 1.0
-    observe_radius: float = 1.0
-    reward_eps: float = 0.001
-    grid_resolution: float = 0.1
-    vehicle_reach: float = 0.8
+    drop_mean_per_tick: float = setting(1.0 / 500.0, ge=0.0)
+    drop_std: float = setting(0.2, ge=0.0)
+    fill_radius: float = setting(1.0, gt=0.0)
+    observe_radius: float = setting(1.0, gt=0.0)
+    reward_eps: float = setting(0.001, gt=0.0)
+    grid_resolution: float = setting(0.1, gt=0.0)
+    vehicle_reach: float = setting(0.8, gt=0.0)
     """NavTo of the vehicle ends at the first free cell within this distance of the jar (m)."""
-    drone_standoff: float = 0.75
+    drone_standoff: float = setting(0.75, gt=0.0)
     """NavTo of the drone ends hovering this close to the jar (m), facing it."""
-    drone_radius: float = 0.3
+    drone_radius: float = setting(0.3, ge=0.0)
     """Drone footprint radius for its cruise-level planning grid (m)."""
-    vehicle_arrive_tol: float = 0.05
-    drone_arrive_tol: float = 0.15
-    face_tol: float = 0.35
+    vehicle_arrive_tol: float = setting(0.05, gt=0.0)
+    drone_arrive_tol: float = setting(0.15, gt=0.0)
+    face_tol: float = setting(0.35, gt=0.0)
     """NavTo ends facing the jar within this angle (rad), so the camera shows its level."""
-    nav_slack_ticks: int = 8
+    nav_slack_ticks: int = setting(8, ge=0)
     """NavTo gives up after the path's travel time at full speed plus this many ticks."""

@@ -22,7 +22,7 @@ import mujoco
 import numpy as np
 
 from maopg.sim.assets import ASSETS_DIR
-from maopg.sim.props import layout_sites
+from maopg.sim.props import arena_floor, layout_sites
 from maopg.sim.scene import Scene, SceneBuilder
 from maopg.sim.tiling import tile_arena, tile_prefix
 from maopg.tasks.water_filling.config import Config
@@ -74,8 +74,16 @@ def read_arena(config: Config) -> Arena:
         raise ValueError(f"arena {config.arena} has no jar stand sites ({STAND}0, ...)")
     tiles = team.tiles(stands, len(SPAWNS))
     count = tiles[0] * tiles[1]
-    if count > 1:
-        sites = layout_sites(tile_arena(path, *tiles).compile())
+    model = tile_arena(path, *tiles).compile() if count > 1 else None
+    if model is not None:
+        sites = layout_sites(model)
+    floor = arena_floor(model if model is not None else path)
+    for setting, start in (
+        ("vehicle_start", config.vehicle_start),
+        ("drone_start", config.drone_start),
+    ):
+        if start is not None:
+            floor.require_inside(f"env.{setting}", start)
 
     def site(tile: int, name: str) -> np.ndarray:
         return sites[(tile_prefix(tile) if count > 1 else "") + name]
@@ -88,11 +96,10 @@ def read_arena(config: Config) -> Arena:
         starts[0] = config.vehicle_start
     if config.drone_start is not None:  # only with one drone, the last agent
         starts[-1] = config.drone_start
-    floor = mujoco.MjModel.from_xml_path(str(path)).geom("floor").size
     return Arena(
         jar_sites=jar_sites,
         starts=tuple(starts),
-        half_extent=(float(floor[0]) * tiles[0], float(floor[1]) * tiles[1]),
+        half_extent=floor.half_extent,
         tiles=tiles,
     )
 

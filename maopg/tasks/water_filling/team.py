@@ -34,11 +34,8 @@ class Team:
 
     @classmethod
     def of(cls, config: Config) -> Team:
-        """The team of ``config``; a ``ValueError`` names a setting that cannot be played."""
-        for key in ("vehicles", "drones", "jars"):
-            value = getattr(config, key)
-            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-                raise ValueError(f"{key} must be an integer >= 1, got {value!r}")
+        """The team of ``config`` (whose fields checked their own bounds); a ``ValueError``
+        names a start setting that cannot be played with it."""
         for key, count in (("vehicle_start", config.vehicles), ("drone_start", config.drones)):
             if getattr(config, key) is not None and count > 1:
                 kind = key.removesuffix("_start")
