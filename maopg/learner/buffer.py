@@ -8,7 +8,9 @@ truncated. Because every environment takes one option step per row, the grid is 
 though the rows cover different numbers of ticks in different environments.
 
 :meth:`Rollout.training_batch` turns the grid into the flat :class:`TrainBatch` the PPO update
-consumes (advantages by :func:`~maopg.learner.gae.compute_gae`).
+consumes (advantages by :func:`~maopg.learner.gae.compute_gae`). A recurrent learner's rows also
+carry a :class:`Memory` (episode starts and the GRU states carried into the points), from which
+:meth:`TrainBatch.chunks` training chunks restart.
 """
 
 from __future__ import annotations

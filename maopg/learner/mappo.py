@@ -9,6 +9,12 @@ clipping, as in MAPPO. The actor's objective is PPO's clipped surrogate on the r
 probability 1 given the condition and so contribute nothing to the ratio or the entropy — that is
 the paper's conditional policy gradient. The critic regresses normalised value targets with a
 Huber loss, clipped around the old prediction like the policy ratio.
+
+With ``ppo.recurrent`` both networks carry a GRU state over the decision points
+(:mod:`maopg.policy.memory`): the collection loop keeps each environment's states (across
+iterations, and in the checkpoint) and stores them per row; the update runs over chunks of
+``ppo.chunk_length`` consecutive decision points re-run from their stored states
+(:meth:`MAPPO.chunk_losses`), the rest of PPO unchanged.
 """
 
 from __future__ import annotations

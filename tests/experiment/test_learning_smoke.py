@@ -1,5 +1,6 @@
 """Learning smoke: ``async`` MAPPO on Tool Delivery (state observations) learns, seeded, with
-the product categorical and with the autoregressive conditional (``async-ar``).
+the product categorical, with the autoregressive conditional (``async-ar``) and with a GRU over
+the option-level history in policy and critic (``async-rnn``).
 
 The paper's method reaches its peak in ~50K samples; 25K low-level samples (≈ 30 s here) are
 enough to leave the uniform-random policy (≈ −66 on the canonical task) far behind.
@@ -17,7 +18,7 @@ BUDGET = 25_000
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("method", ["async", "async-ar"])
+@pytest.mark.parametrize("method", ["async", "async-ar", "async-rnn"])
 def test_async_beats_the_random_policy_by_a_wide_margin(tmp_path, method):
     random_returns = [r.ret for r in evaluate_reference("tool_delivery", "random", 40, seed=0)]
     random_mean = float(np.mean(random_returns))
