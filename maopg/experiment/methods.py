@@ -122,7 +122,7 @@ register_method(Method("async-ar", "continue", MAPPOLearner, autoregressive_poli
 # Recurrent policies and critics (a GRU over the option-level history, rMAPPO): for partially
 # observable tasks such as Water Filling. Any MAPPO method is recurrent with ppo.recurrent=true;
 # these three are the rows of the recurrent benchmark (README "Recurrent policies").
-RECURRENT = (("recurrent", True),)
-register_method(Method("async-rnn", "continue", MAPPOLearner, centralized_policy, False, RECURRENT))
-register_method(Method("sync-wait-rnn", "all", MAPPOLearner, centralized_policy, False, RECURRENT))
-register_method(Method("partial-rnn", "continue", MAPPOLearner, partial_policy, False, RECURRENT))
+RECURRENT = {"in_grid": False, "settings": (("recurrent", True),)}
+register_method(Method("async-rnn", "continue", MAPPOLearner, centralized_policy, **RECURRENT))
+register_method(Method("sync-wait-rnn", "all", MAPPOLearner, centralized_policy, **RECURRENT))
+register_method(Method("partial-rnn", "continue", MAPPOLearner, partial_policy, **RECURRENT))
