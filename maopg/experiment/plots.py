@@ -19,6 +19,9 @@ METHOD_COLOURS = {
     "mac-dqn": "tab:orange",
     "partial": "tab:brown",
 }
+RECURRENT_SUFFIX = "-rnn"
+"""A recurrent preset (``async-rnn``) is drawn dashed in its feed-forward method's colour, so
+the recurrent benchmark reads against the grid it sits beside."""
 METRIC_LABELS = {
     RETURN: "mean episode return",
     PAPER_METRIC: "mean option-step reward (paper's metric)",
@@ -54,9 +57,11 @@ def plot_task(
         x, mean, std = mean_curve(group, metric, window)
         if x.size == 0:
             continue
-        colour = METHOD_COLOURS.get(method)
+        base = method.removesuffix(RECURRENT_SUFFIX)
+        colour = METHOD_COLOURS.get(base)
+        line = "--" if base != method else "-"
         seeds = f"{len(group)} seed{'s' if len(group) > 1 else ''}"
-        ax.plot(x, mean, color=colour, label=f"{method} ({seeds})", lw=2)
+        ax.plot(x, mean, color=colour, ls=line, label=f"{method} ({seeds})", lw=2)
         ax.fill_between(x, mean - std, mean + std, color=colour, alpha=0.2, lw=0)
     ax.set_xlabel("low-level samples (ticks)")
     ax.set_ylabel(METRIC_LABELS.get(metric, metric))

@@ -277,11 +277,19 @@ class MAPPO:
         self.critic_opt.load_state_dict(state["critic_opt"])
 
 
+def recurrent_setting(config: Any) -> bool:
+    """A config section's ``recurrent``: the policy builders below serve any learner, and a
+    user's learner whose section has no such field (it is feed-forward) may reuse them."""
+    return bool(getattr(config, "recurrent", False))
+
+
 def centralized_policy(
     spec: EnvSpec, *, hidden: int, layers: int, config: PPOConfig
 ) -> CentralizedPolicy:
     """The paper's conditional centralized policy (the method registry's policy builder)."""
-    return CentralizedPolicy(spec, hidden=hidden, layers=layers, recurrent=config.recurrent)
+    return CentralizedPolicy(
+        spec, hidden=hidden, layers=layers, recurrent=recurrent_setting(config)
+    )
 
 
 def autoregressive_policy(
@@ -289,7 +297,9 @@ def autoregressive_policy(
 ) -> AutoregressivePolicy:
     """The same conditional, factored by the chain rule: one small factor per choosing agent
     (linear in the team size, where the product categorical grows as ``ΠK_i``)."""
-    return AutoregressivePolicy(spec, hidden=hidden, layers=layers, recurrent=config.recurrent)
+    return AutoregressivePolicy(
+        spec, hidden=hidden, layers=layers, recurrent=recurrent_setting(config)
+    )
 
 
 def partial_policy(
@@ -297,7 +307,7 @@ def partial_policy(
 ) -> PartiallyCentralizedPolicy:
     """One policy per agent from its local observation (paper §III-D)."""
     return PartiallyCentralizedPolicy(
-        spec, hidden=hidden, layers=layers, recurrent=config.recurrent
+        spec, hidden=hidden, layers=layers, recurrent=recurrent_setting(config)
     )
 
 
@@ -321,7 +331,7 @@ class MAPPOLearner(Learner):
     policy_key = "policy"
 
     def __init__(self, policy: OptionPolicy, setup: LearnerSetup) -> None:
-        recurrent = setup.config.recurrent
+        recurrent = recurrent_setting(setup.config)
         if policy.recurrent != recurrent:
             built = "a recurrent" if policy.recurrent else "a feed-forward"
             raise ValueError(
