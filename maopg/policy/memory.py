@@ -18,7 +18,8 @@ collection as inside a training chunk.
 **Step and sequence.** :meth:`OptionMemory.step` advances one decision point per row (acting,
 collection); :meth:`OptionMemory.sequence` re-runs chunks of consecutive decision points from
 their stored initial state (truncated backpropagation through the chunk) with the very same
-cell, one step at a time, so both compute the same numbers.
+cell, one step at a time, so both compute the same numbers (up to the float rounding of a
+different batch size: ~1e-7 on the CPU, ``tests/learner/test_recurrent.py``).
 """
 
 from __future__ import annotations
