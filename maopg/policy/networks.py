@@ -4,7 +4,9 @@
 the condition of each decision point (who chooses, what the others run, what is available) it
 returns a distribution over joint options. The product categorical behind
 :class:`CentralizedPolicy` is exact but grows as ``ΠK_i``; a factored or autoregressive
-conditional policy for many agents would implement the same interface.
+conditional policy for many agents would implement the same interface. With ``recurrent=True``
+the policies and the critic carry a GRU state over the decision points (:class:`EncodedPolicy`,
+:mod:`maopg.policy.memory`), for partially observable tasks.
 
 :class:`JointQNetwork` is Mac-DQN's acting network: a value for every joint option, acted on by
 the conditional argmax of :mod:`maopg.policy.conditional`.
