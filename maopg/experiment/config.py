@@ -154,7 +154,7 @@ class TrainConfig(Settings):
             if getattr(cfg, key) is None:
                 setattr(cfg, key, defaults[key])
         if cfg.learner is None:
-            cfg.learner = method.config_class()
+            cfg.learner = method.default_config()
         elif not isinstance(cfg.learner, method.config_class):
             raise ValueError(
                 f"method {cfg.method!r} takes a {method.config_class.__name__} section, "
@@ -200,7 +200,7 @@ class TrainConfig(Settings):
         values = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
         section = values.pop("learner")
         if section is None:
-            section = get_method(self.method).config_class()
+            section = get_method(self.method).default_config()
         values["env_overrides"] = dict(self.env_overrides)
         values["plugins"] = list(self.plugins)
         values["ray"] = dataclasses.asdict(self.ray)
@@ -239,7 +239,8 @@ class TrainConfig(Settings):
         if ray is not None:
             config.ray = _build(RayOptions, ray, "ray.")
         if section is not None:
-            config.learner = _build(method.config_class, section, f"{own}.")
+            _build(method.config_class, section, f"{own}.")  # unknown keys, by name
+            config.learner = method.default_config(**section)
         return config
 
     def save(self, path: Path) -> None:

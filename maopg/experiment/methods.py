@@ -39,6 +39,11 @@ class Method:
     in_grid: bool = True
     """Part of the reproduction grid by default (``python -m eval reproduce``): the paper's
     methods are; a method added since is run by naming it (``--methods``)."""
+    settings: tuple[tuple[str, Any], ...] = ()
+    """Its own defaults for fields of its config section, as ``(name, value)`` pairs: a variant
+    of a method that differs only in a setting (``async-rnn`` is ``async`` with
+    ``ppo.recurrent=true``) is a row of its own in the tables; ``SECTION.NAME=VALUE`` on the
+    command line still wins."""
 
     @property
     def section(self) -> str:
@@ -53,6 +58,10 @@ class Method:
     def columns(self) -> tuple[str, ...]:
         """Its ``metrics.csv`` header."""
         return (*SHARED_COLUMNS, *self.learner.columns, *TIMING_COLUMNS)
+
+    def default_config(self, **given: Any) -> Any:
+        """Its config section: the learner's defaults, then :attr:`settings`, then ``given``."""
+        return self.config_class(**{**dict(self.settings), **given})
 
     def build_policy(self, spec: EnvSpec, *, hidden: int, layers: int, config: Any) -> nn.Module:
         return self.policy(spec, hidden=hidden, layers=layers, config=config)
@@ -110,3 +119,10 @@ register_method(Method("partial", "continue", MAPPOLearner, partial_policy))
 # option set is too large for the product categorical (maopg.policy.autoregressive). A sync
 # variant is one line more: Method("sync-cut-ar", "any", MAPPOLearner, autoregressive_policy).
 register_method(Method("async-ar", "continue", MAPPOLearner, autoregressive_policy, in_grid=False))
+# Recurrent policies and critics (a GRU over the option-level history, rMAPPO): for partially
+# observable tasks such as Water Filling. Any MAPPO method is recurrent with ppo.recurrent=true;
+# these three are the rows of the recurrent benchmark (README "Recurrent policies").
+RECURRENT = {"in_grid": False, "settings": (("recurrent", True),)}
+register_method(Method("async-rnn", "continue", MAPPOLearner, centralized_policy, **RECURRENT))
+register_method(Method("sync-wait-rnn", "all", MAPPOLearner, centralized_policy, **RECURRENT))
+register_method(Method("partial-rnn", "continue", MAPPOLearner, partial_policy, **RECURRENT))

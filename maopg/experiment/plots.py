@@ -28,6 +28,9 @@ METHOD_COLOURS = {
 }
 LINE_STYLES = ("-", "--", ":", "-.")
 """Dash patterns of a method's settings groups, in order."""
+RECURRENT_SUFFIX = "-rnn"
+"""A recurrent preset (``async-rnn``) is drawn dashed in its feed-forward method's colour, so
+the recurrent benchmark reads against the grid it sits beside."""
 METRIC_LABELS = {
     RETURN: "mean episode return",
     PAPER_METRIC: "mean option-step reward (paper's metric)",
@@ -73,9 +76,11 @@ def plot_task(
         if x.size == 0:
             continue
         method = base_method(label)
-        colour = METHOD_COLOURS.get(method)
-        style = LINE_STYLES[variants.get(method, 0) % len(LINE_STYLES)]
-        variants[method] = variants.get(method, 0) + 1
+        family = method.removesuffix(RECURRENT_SUFFIX)
+        colour = METHOD_COLOURS.get(family)
+        drawn = variants.get(family, 0) + (family != method)  # recurrent: dashed at least
+        style = LINE_STYLES[drawn % len(LINE_STYLES)]
+        variants[family] = drawn + 1
         seeds = f"{len(group)} seed{'s' if len(group) > 1 else ''}"
         ax.plot(x, mean, color=colour, ls=style, label=f"{label} ({seeds})", lw=2)
         ax.fill_between(x, mean - std, mean + std, color=colour, alpha=0.2, lw=0)

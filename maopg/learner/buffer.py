@@ -8,7 +8,9 @@ truncated. Because every environment takes one option step per row, the grid is 
 though the rows cover different numbers of ticks in different environments.
 
 :meth:`Rollout.training_batch` turns the grid into the flat :class:`TrainBatch` the PPO update
-consumes (advantages by :func:`~maopg.learner.gae.compute_gae`).
+consumes (advantages by :func:`~maopg.learner.gae.compute_gae`). A recurrent learner's rows also
+carry a :class:`Memory` (episode starts and the GRU states carried into the points), from which
+:meth:`TrainBatch.chunks` training chunks restart.
 """
 
 from __future__ import annotations
@@ -47,34 +49,68 @@ class TrainBatch:
     """``float32 [B]`` value targets ``A + V`` in return units."""
     advantages: Tensor
     """``float32 [B]`` GAE advantages (not yet normalised)."""
+    num_envs: int = 1
+    """``E``: row ``s * E + e`` is option step ``s`` of environment ``e``."""
+    starts: Tensor | None = None
+    """Recurrent only: ``bool [B]`` the point opens an episode (the memory restarts there)."""
+    policy_state: Tensor | None = None
+    """Recurrent only: ``[B, S, H]`` the policy's state carried into the point at collection."""
+    critic_state: Tensor | None = None
+    """Recurrent only: ``[B, 1, H]`` the critic's state carried into the point."""
 
     def __len__(self) -> int:
         return self.old_log_prob.shape[0]
 
     def to(self, device: torch.device | str) -> TrainBatch:
         """The batch on ``device`` (the bank and ``image_index`` of banked images included)."""
-        return TrainBatch(
+        return dataclasses.replace(
+            self,
             obs=self.obs.to(device),
-            **{
-                f.name: getattr(self, f.name).to(device)
-                for f in dataclasses.fields(self)
-                if f.name != "obs"
-            },
+            **{name: value.to(device) for name, value in self._tensors().items()},
         )
 
     def rows(self, index: Tensor) -> TrainBatch:
         """The minibatch ``index`` (a 1-D index tensor)."""
-        return TrainBatch(
+        return dataclasses.replace(
+            self,
             obs=self.obs[index],
-            choosing=self.choosing[index],
-            running=self.running[index],
-            available=self.available[index],
-            joint=self.joint[index],
-            old_log_prob=self.old_log_prob[index],
-            old_value=self.old_value[index],
-            returns=self.returns[index],
-            advantages=self.advantages[index],
+            **{name: value[index] for name, value in self._tensors().items()},
         )
+
+    def _tensors(self) -> dict[str, Tensor]:
+        """Every per-row tensor but the observations (the recurrent ones where present)."""
+        return {
+            f.name: getattr(self, f.name)
+            for f in dataclasses.fields(self)
+            if f.name not in ("obs", "num_envs") and getattr(self, f.name) is not None
+        }
+
+    def chunks(self, length: int) -> Tensor:
+        """``int64 [C, L]``: the rows of each chunk of up to ``length`` consecutive option steps
+        of one environment, ``-1`` after a chunk cut short by the end of the rollout.
+
+        Chunks are cut at fixed positions (every ``length`` rows from the rollout's first), not
+        at episode ends: a reset inside a chunk is masked by :attr:`starts`, as in rMAPPO, so
+        every chunk but an environment's last is full. ``L`` is ``min(length, steps)``.
+        """
+        steps = len(self) // self.num_envs
+        length = min(length, steps)
+        starts = torch.arange(0, steps, length)
+        offsets = torch.arange(length)
+        step = starts.view(-1, 1) + offsets  # [chunks per env, L]
+        envs = torch.arange(self.num_envs).view(-1, 1, 1)
+        rows = torch.where(step < steps, step * self.num_envs + envs, -1)
+        return rows.reshape(-1, length).to(self.old_log_prob.device)
+
+
+@dataclass(frozen=True)
+class Memory:
+    """What a recurrent learner keeps of one row beside the option step: which points open an
+    episode ``bool [E]``, and the policy's and critic's states carried into them (CPU)."""
+
+    starts: Tensor
+    policy_state: Tensor
+    critic_state: Tensor
 
 
 @dataclass
@@ -119,6 +155,8 @@ class Rollout:
     truncated: list[np.ndarray] = field(default_factory=list)
     episodes: list[dict[str, Any]] = field(default_factory=list)
     """``info["episode"]`` of every episode that ended inside this rollout, in order."""
+    memory: list[Memory] = field(default_factory=list)
+    """Recurrent only: one :class:`Memory` per row."""
 
     def add(
         self,
@@ -136,8 +174,10 @@ class Rollout:
         terminated: np.ndarray,
         truncated: np.ndarray,
         next_value: Tensor,
+        memory: Memory | None = None,
     ) -> None:
-        """Append one row (one option step of every environment); ``obs`` is dense (acting's)."""
+        """Append one row (one option step of every environment); ``obs`` is dense (acting's).
+        A recurrent learner gives every row its ``memory``."""
         self.vectors.append(obs.vectors)
         if obs.images is not None:
             fresh = choosing.bool() if self.image_index else torch.ones_like(choosing.bool())
@@ -158,6 +198,8 @@ class Rollout:
         self.terminated.append(np.asarray(terminated, dtype=bool))
         self.truncated.append(np.asarray(truncated, dtype=bool))
         self.next_value.append(next_value)
+        if memory is not None:
+            self.memory.append(memory)
 
     @property
     def num_steps(self) -> int:
@@ -207,6 +249,12 @@ class Rollout:
         """Flatten the grid row-major (index ``s * E + e``) into a :class:`TrainBatch`."""
         images = torch.stack(self.bank) if self.bank else None
         index = torch.cat(self.image_index) if self.image_index else None
+        recurrent = {}
+        if self.memory:
+            recurrent = {
+                name: torch.cat([getattr(m, name) for m in self.memory])
+                for name in ("starts", "policy_state", "critic_state")
+            }
         return TrainBatch(
             obs=ObsBatch(torch.cat(self.vectors), images, index),
             choosing=torch.cat(self.choosing),
@@ -217,4 +265,6 @@ class Rollout:
             old_value=torch.cat(self.value).float(),
             returns=torch.from_numpy(returns.reshape(-1)).float(),
             advantages=torch.from_numpy(advantages.reshape(-1)).float(),
+            num_envs=self.num_envs,
+            **recurrent,
         )

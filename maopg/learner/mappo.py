@@ -9,6 +9,12 @@ clipping, as in MAPPO. The actor's objective is PPO's clipped surrogate on the r
 probability 1 given the condition and so contribute nothing to the ratio or the entropy — that is
 the paper's conditional policy gradient. The critic regresses normalised value targets with a
 Huber loss, clipped around the old prediction like the policy ratio.
+
+With ``ppo.recurrent`` both networks carry a GRU state over the decision points
+(:mod:`maopg.policy.memory`): the collection loop keeps each environment's states (across
+iterations, and in the checkpoint) and stores them per row; the update runs over chunks of
+``ppo.chunk_length`` consecutive decision points re-run from their stored states
+(:meth:`MAPPO.chunk_losses`), the rest of PPO unchanged.
 """
 
 from __future__ import annotations
@@ -32,7 +38,7 @@ from maopg.learner.base import (
     require_finite,
     require_finite_parameters,
 )
-from maopg.learner.buffer import Rollout, TrainBatch
+from maopg.learner.buffer import Memory, Rollout, TrainBatch
 from maopg.learner.gae import DiscountForm
 from maopg.learner.value_norm import ValueNorm
 from maopg.policy import (
@@ -40,9 +46,11 @@ from maopg.policy import (
     CentralCritic,
     CentralizedPolicy,
     DistributionActor,
+    JointOptionDistribution,
     ObsBatch,
     OptionPolicy,
     PartiallyCentralizedPolicy,
+    episode_starts,
     stack_conditions,
 )
 from maopg.settings import Settings, setting
@@ -74,6 +82,16 @@ class PPOConfig(Settings):
     """``smdp`` (γ^k per option step, default) or ``option`` (the paper's γ per option step)."""
     value_norm: bool = True
     """Running mean/var normalisation of the critic's targets."""
+    recurrent: bool = False
+    """A GRU over the option-level history in the policy and the critic (rMAPPO; the same key
+    as ``dqn.recurrent``): the policy's state advances at its decision points (a partially
+    centralized policy's per-agent state only at that agent's own), the critic's at every one,
+    and both restart with each episode. Off by default: feed-forward is cheaper, and the
+    committed grid is feed-forward."""
+    chunk_length: int = setting(10, ge=1)
+    """Recurrent only: consecutive decision points per training chunk, the horizon of truncated
+    backpropagation through time (rMAPPO's ``data_chunk_length``); minibatches are sets of
+    chunks, each re-run from the state it was collected with."""
 
 
 @dataclass
@@ -110,18 +128,57 @@ class MAPPO:
 
     def losses(self, batch: TrainBatch, advantages: Tensor, targets: Tensor) -> Losses:
         """PPO losses of ``batch`` given its (normalised) advantages and critic-space targets."""
-        cfg = self.config
         dist = self.policy.distribution(batch.obs, batch.choosing, batch.running, batch.available)
-        log_prob = dist.log_prob(batch.joint)
-        log_ratio = log_prob - batch.old_log_prob
+        old = (batch.joint, batch.old_log_prob, batch.old_value)
+        return self._losses(dist, self.critic(batch.obs), *old, advantages, targets)
+
+    def chunk_losses(
+        self, batch: TrainBatch, chunks: Tensor, advantages: Tensor, targets: Tensor
+    ) -> Losses:
+        """PPO losses of the decision points of ``chunks`` (``int64 [C, L]`` rows of ``batch``,
+        ``-1`` padding; :meth:`TrainBatch.chunks`) for a recurrent policy and critic: both re-run
+        each chunk from the states stored at its first row, resets masked inside it, and the
+        gradient flows back through the chunk. ``advantages`` and ``targets`` are the whole
+        batch's."""
+        valid = chunks >= 0
+        padded = torch.where(valid, chunks, chunks[:, :1]).flatten()
+        rows = batch.rows(padded)
+        starts = batch.starts[padded].view(valid.shape)  # type: ignore[index]
+        first = chunks[:, 0]
+        dist = self.policy.sequence(
+            rows.obs,
+            rows.choosing,
+            rows.running,
+            rows.available,
+            batch.policy_state[first],  # type: ignore[index]
+            starts,
+            valid,
+        )
+        values = self.critic.sequence(rows.obs, batch.critic_state[first], starts, valid)  # type: ignore[index]
+        kept = chunks[valid]
+        old = (batch.joint[kept], batch.old_log_prob[kept], batch.old_value[kept])
+        return self._losses(dist, values, *old, advantages[kept], targets[kept])
+
+    def _losses(
+        self,
+        dist: JointOptionDistribution,
+        values: Tensor,
+        joint: Tensor,
+        old_log_prob: Tensor,
+        old_value: Tensor,
+        advantages: Tensor,
+        targets: Tensor,
+    ) -> Losses:
+        """The clipped surrogate, the clipped Huber value loss and the statistics, from the
+        current ``dist`` and ``values`` of rows sampled with ``old_log_prob`` / ``old_value``."""
+        cfg = self.config
+        log_prob = dist.log_prob(joint)
+        log_ratio = log_prob - old_log_prob
         ratio = log_ratio.exp()
         surrogate = torch.min(
             ratio * advantages, ratio.clamp(1.0 - cfg.clip, 1.0 + cfg.clip) * advantages
         )
-        values = self.critic(batch.obs)
-        clipped = batch.old_value + (values - batch.old_value).clamp(
-            -cfg.value_clip, cfg.value_clip
-        )
+        clipped = old_value + (values - old_value).clamp(-cfg.value_clip, cfg.value_clip)
         huber = nn.functional.huber_loss
         value_loss = torch.max(
             huber(values, targets, reduction="none", delta=cfg.huber_delta),
@@ -139,7 +196,9 @@ class MAPPO:
         )
 
     def update(self, batch: TrainBatch, generator: torch.Generator) -> dict[str, float]:
-        """Run ``epochs`` passes of ``num_minibatches`` shuffled minibatches over ``batch``.
+        """Run ``epochs`` passes of ``num_minibatches`` shuffled minibatches over ``batch``: of
+        its rows, or for a recurrent policy of its chunks of ``chunk_length`` consecutive
+        decision points of one environment (:meth:`TrainBatch.chunks`).
 
         Updates the value normaliser with the batch's returns first (MAPPO), so the critic's
         targets are normalised with statistics that include them. Returns mean statistics.
@@ -158,13 +217,17 @@ class MAPPO:
             ("policy_loss", "value_loss", "entropy", "approx_kl", "clip_fraction"), 0.0
         )
         updates = 0
-        size = len(batch)
+        chunks = batch.chunks(cfg.chunk_length) if self.policy.recurrent else None
+        size = len(batch) if chunks is None else len(chunks)
         num_minibatches = max(1, min(cfg.num_minibatches, size))
         for _ in range(cfg.epochs):
             # The generator is a CPU one (LearnerSetup.device): draw there, index on the device.
             order = torch.randperm(size, generator=generator).to(advantages.device)
             for index in order.tensor_split(num_minibatches):
-                losses = self.losses(batch.rows(index), advantages[index], targets[index])
+                if chunks is None:
+                    losses = self.losses(batch.rows(index), advantages[index], targets[index])
+                else:
+                    losses = self.chunk_losses(batch, chunks[index], advantages, targets)
                 actor_loss = losses.policy - cfg.ent_coef * losses.entropy
                 require_finite(actor_loss, "the actor's loss")
                 self.policy_opt.zero_grad()
@@ -201,11 +264,19 @@ class MAPPO:
         self.critic_opt.load_state_dict(state["critic_opt"])
 
 
+def recurrent_setting(config: Any) -> bool:
+    """A config section's ``recurrent``: the policy builders below serve any learner, and a
+    user's learner whose section has no such field (it is feed-forward) may reuse them."""
+    return bool(getattr(config, "recurrent", False))
+
+
 def centralized_policy(
     spec: EnvSpec, *, hidden: int, layers: int, config: PPOConfig
 ) -> CentralizedPolicy:
     """The paper's conditional centralized policy (the method registry's policy builder)."""
-    return CentralizedPolicy(spec, hidden=hidden, layers=layers)
+    return CentralizedPolicy(
+        spec, hidden=hidden, layers=layers, recurrent=recurrent_setting(config)
+    )
 
 
 def autoregressive_policy(
@@ -213,14 +284,18 @@ def autoregressive_policy(
 ) -> AutoregressivePolicy:
     """The same conditional, factored by the chain rule: one small factor per choosing agent
     (linear in the team size, where the product categorical grows as ``ΠK_i``)."""
-    return AutoregressivePolicy(spec, hidden=hidden, layers=layers)
+    return AutoregressivePolicy(
+        spec, hidden=hidden, layers=layers, recurrent=recurrent_setting(config)
+    )
 
 
 def partial_policy(
     spec: EnvSpec, *, hidden: int, layers: int, config: PPOConfig
 ) -> PartiallyCentralizedPolicy:
     """One policy per agent from its local observation (paper §III-D)."""
-    return PartiallyCentralizedPolicy(spec, hidden=hidden, layers=layers)
+    return PartiallyCentralizedPolicy(
+        spec, hidden=hidden, layers=layers, recurrent=recurrent_setting(config)
+    )
 
 
 class MAPPOLearner(Learner):
@@ -243,11 +318,27 @@ class MAPPOLearner(Learner):
     policy_key = "policy"
 
     def __init__(self, policy: OptionPolicy, setup: LearnerSetup) -> None:
+        recurrent = recurrent_setting(setup.config)
+        if policy.recurrent != recurrent:
+            built = "a recurrent" if policy.recurrent else "a feed-forward"
+            raise ValueError(
+                f"ppo.recurrent={str(recurrent).lower()}, but the method's policy builder made "
+                f"{built} {type(policy).__name__}"
+            )
         super().__init__(policy, setup)
-        critic = CentralCritic(setup.spec, hidden=setup.hidden, layers=setup.layers)
+        critic = CentralCritic(
+            setup.spec, hidden=setup.hidden, layers=setup.layers, recurrent=recurrent
+        )
         self.critic = critic.to(self.device)
         self.value_norm = ValueNorm().to(self.device) if self.config.value_norm else None
         self.ppo = MAPPO(policy, self.critic, self.value_norm, self.config)
+        self.memory = {
+            "policy": self.policy.initial_state(setup.num_envs),
+            "critic": self.critic.initial_state(setup.num_envs),
+        }
+        """Recurrent only (else ``None``s): the states carried into each environment's current
+        decision point, kept from one iteration to the next (and in the checkpoint), since the
+        environments' episodes run on across iterations. The environments never see them."""
 
     def iteration(self, envs: SeededVectorEnv, samples: int) -> tuple[dict[str, Any], int]:
         cfg = self.config
@@ -279,17 +370,30 @@ class MAPPOLearner(Learner):
         critic's own (normalised) space; a truncated episode bootstraps from its final point.
         The networks run on the learner's device; the rollout is kept on the CPU (see
         :class:`~maopg.learner.buffer.Rollout` for why).
+
+        Recurrent: each row also keeps the states carried into its points (a training chunk
+        restarts from its first row's) and which points open an episode; the policy's state
+        advances as it acts, the critic's as it values each point once (that value is the
+        bootstrap of the step before and the baseline of the step after).
         """
         policy, critic, device = self.policy, self.critic, self.device
         rollout = Rollout(num_envs=envs.num_envs)
         obs = ObsBatch.from_decision_points(envs.points)
         on_device = obs.to(device)
-        values = critic(on_device).cpu()
+        starts = episode_starts(envs.points)
+        policy_in, critic_in = self.memory["policy"], self.memory["critic"]
+        values, critic_out = critic.step(on_device, critic_in, starts.to(device))
+        values = values.cpu()
         ticks = 0
         while ticks < self.setup.batch_ticks:
             choosing, running, available = stack_conditions(envs.points)
-            dist = policy.distribution(
-                on_device, choosing.to(device), running.to(device), available.to(device)
+            dist, policy_out = policy.step(
+                on_device,
+                choosing.to(device),
+                running.to(device),
+                available.to(device),
+                policy_in,
+                starts.to(device),
             )
             joint = dist.sample(self.setup.sample_gen)
             log_prob = dist.log_prob(joint).cpu()
@@ -298,12 +402,21 @@ class MAPPOLearner(Learner):
             outcomes = [r.outcome for r in results]
             next_obs = ObsBatch.from_decision_points(envs.points)
             next_on_device = next_obs.to(device)
-            next_values = critic(next_on_device).cpu()
+            next_starts = episode_starts(envs.points)
+            next_values, next_critic_out = critic.step(
+                next_on_device, critic_out, next_starts.to(device)
+            )
+            next_values = next_values.cpu()
             bootstrap = next_values.clone()
             truncated = [e for e, o in enumerate(outcomes) if o.truncated]
             if truncated:
-                finals = ObsBatch.from_decision_points([outcomes[e] for e in truncated])
-                bootstrap[truncated] = critic(finals.to(device)).cpu()
+                final_points = [outcomes[e] for e in truncated]
+                finals = ObsBatch.from_decision_points(final_points)
+                carried = None if critic_out is None else critic_out[truncated]
+                final_values, _ = critic.step(
+                    finals.to(device), carried, episode_starts(final_points).to(device)
+                )
+                bootstrap[truncated] = final_values.cpu()
             rollout.add(
                 obs=obs,
                 choosing=choosing,
@@ -318,12 +431,17 @@ class MAPPOLearner(Learner):
                 terminated=np.array([o.terminated for o in outcomes]),
                 truncated=np.array([o.truncated for o in outcomes]),
                 next_value=bootstrap,
+                memory=None
+                if policy_in is None
+                else Memory(starts, policy_in.cpu(), critic_in.cpu()),  # type: ignore[union-attr]
             )
             rollout.episodes += [
                 dict(r.final.info["episode"]) for r in results if r.final is not None
             ]
             ticks += int(sum(o.duration for o in outcomes))
-            obs, on_device, values = next_obs, next_on_device, next_values
+            obs, on_device, values, starts = next_obs, next_on_device, next_values, next_starts
+            policy_in, critic_in, critic_out = policy_out, critic_out, next_critic_out
+        self.memory = {"policy": policy_in, "critic": critic_in}
         return rollout
 
     def final_state(self) -> dict[str, Any]:
@@ -334,7 +452,10 @@ class MAPPOLearner(Learner):
         }
 
     def state_dict(self) -> dict[str, Any]:
-        return {**self.final_state(), "optimizers": self.ppo.state_dict()}
+        state = {**self.final_state(), "optimizers": self.ppo.state_dict()}
+        if self.policy.recurrent:
+            state["memory"] = dict(self.memory)
+        return state
 
     def load_state_dict(self, state: dict[str, Any]) -> None:
         self.policy.load_state_dict(state["policy"])
@@ -342,6 +463,8 @@ class MAPPOLearner(Learner):
         if self.value_norm is not None:
             self.value_norm.load_state_dict(state["value_norm"])
         self.ppo.load_state_dict(state["optimizers"])
+        if self.policy.recurrent:
+            self.memory = {key: value.to(self.device) for key, value in state["memory"].items()}
 
     @staticmethod
     def actor(policy: OptionPolicy, config: PPOConfig, *, greedy: bool, seed: int) -> Actor:

@@ -1,6 +1,7 @@
-"""Option policies, the centralized critic, Mac-DQN's joint Q-network, and their actors."""
+"""Option policies (feed-forward or recurrent), the centralized critic, Mac-DQN's joint Q-network,
+and their actors."""
 
-from maopg.policy.actors import DistributionActor, QActor
+from maopg.policy.actors import DistributionActor, QActor, episode_starts
 from maopg.policy.autoregressive import AutoregressiveConditional, AutoregressivePolicy
 from maopg.policy.batch import ObsBatch, stack_conditions, vector_slices
 from maopg.policy.conditional import (
@@ -17,9 +18,11 @@ from maopg.policy.conditional import (
     unravel_joint,
 )
 from maopg.policy.encoders import JointEncoder, LocalEncoder, NatureCNN, init_orthogonal
+from maopg.policy.memory import OptionMemory
 from maopg.policy.networks import (
     CentralCritic,
     CentralizedPolicy,
+    EncodedPolicy,
     JointQNetwork,
     OptionPolicy,
     PartiallyCentralizedPolicy,
@@ -32,6 +35,7 @@ __all__ = [
     "CentralizedPolicy",
     "ConditionalJoint",
     "DistributionActor",
+    "EncodedPolicy",
     "FactoredConditional",
     "JointEncoder",
     "JointOptionDistribution",
@@ -39,12 +43,14 @@ __all__ = [
     "LocalEncoder",
     "NatureCNN",
     "ObsBatch",
+    "OptionMemory",
     "OptionPolicy",
     "PartiallyCentralizedPolicy",
     "QActor",
     "conditional_argmax",
     "conditional_log_probs",
     "draw_multinomial",
+    "episode_starts",
     "epsilon_greedy",
     "init_orthogonal",
     "joint_slice_mask",

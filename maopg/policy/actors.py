@@ -9,6 +9,8 @@ one, and neither imports anything of training. They act on whatever device the n
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 import torch
 
@@ -30,17 +32,31 @@ def _point_tensors(point: DecisionPoint, device: torch.device) -> tuple:
     )
 
 
+def episode_starts(points: Sequence[DecisionPoint]) -> torch.Tensor:
+    """``bool [B]``: which points open an episode (``ticks == 0``), where memory restarts."""
+    return torch.tensor([p.ticks == 0 for p in points], dtype=torch.bool)
+
+
 class DistributionActor:
-    """An :class:`OptionPolicy`'s conditional: its mode (``greedy``) or a seeded sample."""
+    """An :class:`OptionPolicy`'s conditional: its mode (``greedy``) or a seeded sample.
+
+    A recurrent policy's state is carried from one call to the next, as in training (each point
+    advances it, a partially centralized policy's per-agent slots only where that agent
+    chooses), and restarts at every episode's reset point (``ticks == 0``); so one actor plays
+    one episode at a time, its points in order.
+    """
 
     def __init__(self, policy: OptionPolicy, *, greedy: bool = True, seed: int = 0) -> None:
         self.policy = policy.eval()
         self.greedy = greedy
         self.generator = torch.Generator().manual_seed(seed)
+        self.state = policy.initial_state(1)
 
     @torch.no_grad()
     def __call__(self, point: DecisionPoint) -> np.ndarray:
-        dist = self.policy.distribution(*_point_tensors(point, _device(self.policy)))
+        device = _device(self.policy)
+        starts = episode_starts([point]).to(device)
+        dist, self.state = self.policy.step(*_point_tensors(point, device), self.state, starts)
         joint = dist.mode() if self.greedy else dist.sample(self.generator)
         return joint[0].cpu().numpy()
 
@@ -60,7 +76,7 @@ class QActor:
 
     @torch.no_grad()
     def __call__(self, point: DecisionPoint) -> np.ndarray:
-        if point.ticks == 0:
+        if episode_starts([point])[0]:
             self.state = self.q.initial_state(1)
         obs, *conditions = _point_tensors(point, _device(self.q))
         values, self.state = self.q.step(obs, self.state)

@@ -41,13 +41,26 @@ from maopg.env.contract import EnvSpec
 from maopg.policy.batch import ObsBatch
 from maopg.policy.conditional import agent_masks
 from maopg.policy.encoders import JointEncoder, init_orthogonal
-from maopg.policy.networks import POLICY_HEAD_GAIN, OptionPolicy
+from maopg.policy.memory import OptionMemory
+from maopg.policy.networks import POLICY_HEAD_GAIN, EncodedPolicy
 
 
-class AutoregressivePolicy(OptionPolicy):
-    """Joint observation → features; one shared factor head per choosing agent (module doc)."""
+class AutoregressivePolicy(EncodedPolicy):
+    """Joint observation → features; one shared factor head per choosing agent (module doc).
 
-    def __init__(self, spec: EnvSpec, *, hidden: int = 128, layers: int = 2, **encoder_kw) -> None:
+    ``recurrent``: a GRU between the encoder and the factors, one joint state advancing at every
+    decision point (the factors of one point share its features, as without memory).
+    """
+
+    def __init__(
+        self,
+        spec: EnvSpec,
+        *,
+        hidden: int = 128,
+        layers: int = 2,
+        recurrent: bool = False,
+        **encoder_kw,
+    ) -> None:
         super().__init__()
         self.option_counts = spec.option_counts
         n = len(self.option_counts)
@@ -64,6 +77,7 @@ class AutoregressivePolicy(OptionPolicy):
         init_orthogonal(self.factor, math.sqrt(2.0))
         self.head = nn.Linear(hidden, max(self.option_counts))
         init_orthogonal(self.head, POLICY_HEAD_GAIN)
+        self.memory = OptionMemory(self.encoder.out_dim) if recurrent else None
 
     def factor_logits(
         self, features: Tensor, choosing: Tensor, known: Tensor, agents: Tensor
@@ -88,10 +102,13 @@ class AutoregressivePolicy(OptionPolicy):
         )
         return self.head(self.factor(inputs))
 
-    def distribution(
-        self, obs: ObsBatch, choosing: Tensor, running: Tensor, available: Tensor
+    def encode(self, obs: ObsBatch) -> list[Tensor]:
+        return [self.encoder(obs)]
+
+    def conditional(
+        self, features: list[Tensor], choosing: Tensor, running: Tensor, available: Tensor
     ) -> AutoregressiveConditional:
-        return AutoregressiveConditional(self, self.encoder(obs), choosing, running, available)
+        return AutoregressiveConditional(self, features[0], choosing, running, available)
 
 
 class AutoregressiveConditional:

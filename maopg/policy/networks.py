@@ -4,7 +4,9 @@
 the condition of each decision point (who chooses, what the others run, what is available) it
 returns a distribution over joint options. The product categorical behind
 :class:`CentralizedPolicy` is exact but grows as ``ΠK_i``; a factored or autoregressive
-conditional policy for many agents would implement the same interface.
+conditional policy for many agents would implement the same interface. With ``recurrent=True``
+the policies and the critic carry a GRU state over the decision points (:class:`EncodedPolicy`,
+:mod:`maopg.policy.memory`), for partially observable tasks.
 
 :class:`JointQNetwork` is Mac-DQN's acting network: a value for every joint option, acted on by
 the conditional argmax of :mod:`maopg.policy.conditional`.
@@ -27,6 +29,7 @@ from maopg.policy.conditional import (
     partial_conditional_log_probs,
 )
 from maopg.policy.encoders import JointEncoder, LocalEncoder, init_orthogonal
+from maopg.policy.memory import OptionMemory
 
 POLICY_HEAD_GAIN = 0.01
 """MAPPO's policy-head gain: near-uniform initial policy, so early exploration is broad."""
@@ -39,9 +42,24 @@ def _head(in_dim: int, out_dim: int, gain: float) -> nn.Linear:
 
 
 class OptionPolicy(nn.Module, ABC):
-    """A policy over joint options, conditioned on the continuing agents' running options."""
+    """A policy over joint options, conditioned on the continuing agents' running options.
+
+    A feed-forward policy implements :meth:`distribution` only. A recurrent one
+    (:attr:`recurrent`) carries a state from one decision point to the next: it acts through
+    :meth:`step` and is trained through :meth:`sequence` (:mod:`maopg.policy.memory`); the
+    learners and actors call :meth:`step` whatever the policy, with the state
+    :meth:`initial_state` gave them (``None`` for a feed-forward one).
+    """
 
     option_counts: tuple[int, ...]
+
+    @property
+    def recurrent(self) -> bool:
+        return False
+
+    def initial_state(self, batch: int) -> Tensor | None:
+        """The state of ``batch`` fresh episodes (``None``: the policy has no memory)."""
+        return None
 
     @abstractmethod
     def distribution(
@@ -53,34 +71,155 @@ class OptionPolicy(nn.Module, ABC):
         ``bool [B, ΣK_i]`` — see :func:`maopg.policy.batch.stack_conditions`.
         """
 
+    def step(
+        self,
+        obs: ObsBatch,
+        choosing: Tensor,
+        running: Tensor,
+        available: Tensor,
+        state: Tensor | None,
+        starts: Tensor,
+    ) -> tuple[JointOptionDistribution, Tensor | None]:
+        """The conditional at one decision point per row given the ``state`` carried into it,
+        and the state after it; ``starts`` ``bool [B]`` marks episode starts (state zeroed).
+        A feed-forward policy ignores both and returns ``state`` unchanged."""
+        return self.distribution(obs, choosing, running, available), state
 
-class CentralizedPolicy(OptionPolicy):
-    """Joint observation → logits over the product of all agents' option sets."""
+    def sequence(
+        self,
+        obs: ObsBatch,
+        choosing: Tensor,
+        running: Tensor,
+        available: Tensor,
+        state: Tensor,
+        starts: Tensor,
+        valid: Tensor,
+    ) -> JointOptionDistribution:
+        """A recurrent policy's conditional along ``C`` chunks of ``L`` consecutive decision
+        points (rows ``c * L + t`` of ``obs`` and the conditions), from the ``state``
+        ``[C, ...]`` carried into each chunk, with ``starts`` ``bool [C, L]``; the result holds
+        the rows where ``valid`` ``bool [C, L]`` (padding after a short chunk is dropped)."""
+        raise TypeError(f"{type(self).__name__} is feed-forward: it has no sequence()")
 
-    def __init__(self, spec: EnvSpec, **encoder_kw) -> None:
+
+class EncodedPolicy(OptionPolicy):
+    """An :class:`OptionPolicy` made of encoders, an optional :class:`OptionMemory` after them
+    (one slot per encoder) and a conditional head: the policies of this package.
+
+    Subclasses say how observations become features (:meth:`encode`), how features become the
+    conditional (:meth:`conditional`) and which memory slots a decision point advances
+    (:meth:`advancing`); the feed-forward, stepped and chunked paths are written once here.
+    """
+
+    memory: OptionMemory | None
+    """Set by every subclass (``None``: feed-forward)."""
+
+    @property
+    def recurrent(self) -> bool:
+        return self.memory is not None
+
+    def initial_state(self, batch: int) -> Tensor | None:
+        return None if self.memory is None else self.memory.initial_state(batch)
+
+    @abstractmethod
+    def encode(self, obs: ObsBatch) -> list[Tensor]:
+        """One ``[B, F]`` feature tensor per encoder (per memory slot)."""
+
+    @abstractmethod
+    def conditional(
+        self, features: list[Tensor], choosing: Tensor, running: Tensor, available: Tensor
+    ) -> JointOptionDistribution:
+        """The conditional from the (remembered) features."""
+
+    def advancing(self, choosing: Tensor) -> Tensor | None:
+        """``bool [B, S]``: which memory slots a decision point advances (``None``: all)."""
+        return None
+
+    def distribution(
+        self, obs: ObsBatch, choosing: Tensor, running: Tensor, available: Tensor
+    ) -> JointOptionDistribution:
+        if self.memory is not None:
+            raise RuntimeError("a recurrent policy acts through step() and sequence()")
+        return self.conditional(self.encode(obs), choosing, running, available)
+
+    def step(
+        self,
+        obs: ObsBatch,
+        choosing: Tensor,
+        running: Tensor,
+        available: Tensor,
+        state: Tensor | None,
+        starts: Tensor,
+    ) -> tuple[JointOptionDistribution, Tensor | None]:
+        if self.memory is None:
+            return self.distribution(obs, choosing, running, available), state
+        if state is None:
+            raise ValueError("a recurrent policy needs the state carried into the point")
+        features, state = self.memory.step(
+            self.encode(obs), state, starts, self.advancing(choosing)
+        )
+        return self.conditional(features, choosing, running, available), state
+
+    def sequence(
+        self,
+        obs: ObsBatch,
+        choosing: Tensor,
+        running: Tensor,
+        available: Tensor,
+        state: Tensor,
+        starts: Tensor,
+        valid: Tensor,
+    ) -> JointOptionDistribution:
+        if self.memory is None:
+            return super().sequence(obs, choosing, running, available, state, starts, valid)
+        advancing = self.advancing(choosing)
+        if advancing is not None:
+            advancing = advancing.view(*starts.shape, -1)
+        features = self.memory.sequence(self.encode(obs), state, starts, advancing)
+        rows = valid.flatten()
+        return self.conditional(
+            [x[rows] for x in features], choosing[rows], running[rows], available[rows]
+        )
+
+
+class CentralizedPolicy(EncodedPolicy):
+    """Joint observation → logits over the product of all agents' option sets.
+
+    ``recurrent``: a GRU after the encoder, one joint state advancing at every decision point.
+    """
+
+    def __init__(self, spec: EnvSpec, *, recurrent: bool = False, **encoder_kw) -> None:
         super().__init__()
         self.option_counts = spec.option_counts
         self.encoder = JointEncoder(spec, **encoder_kw)
         self.head = _head(self.encoder.out_dim, math.prod(self.option_counts), POLICY_HEAD_GAIN)
+        self.memory = OptionMemory(self.encoder.out_dim) if recurrent else None
 
     def joint_logits(self, obs: ObsBatch) -> Tensor:
-        """``[B, K_0, ..., K_{N-1}]`` unconditioned joint logits."""
-        return self.head(self.encoder(obs)).view(-1, *self.option_counts)
+        """``[B, K_0, ..., K_{N-1}]`` unconditioned joint logits (feed-forward)."""
+        return self._logits(self.encode(obs)[0])
 
-    def distribution(
-        self, obs: ObsBatch, choosing: Tensor, running: Tensor, available: Tensor
+    def _logits(self, features: Tensor) -> Tensor:
+        return self.head(features).view(-1, *self.option_counts)
+
+    def encode(self, obs: ObsBatch) -> list[Tensor]:
+        return [self.encoder(obs)]
+
+    def conditional(
+        self, features: list[Tensor], choosing: Tensor, running: Tensor, available: Tensor
     ) -> ConditionalJoint:
-        return ConditionalJoint(self.joint_logits(obs), choosing, running, available)
+        return ConditionalJoint(self._logits(features[0]), choosing, running, available)
 
 
-class PartiallyCentralizedPolicy(OptionPolicy):
+class PartiallyCentralizedPolicy(EncodedPolicy):
     """One policy per agent from its local observation, each with joint logits (paper §III-D).
 
     Agent i in ``U`` samples from its own joint logits conditioned on ``c`` with the other
     choosing agents marginalised out; the agents share options, not observations.
+    ``recurrent``: one GRU state per agent, advancing only at that agent's own decisions.
     """
 
-    def __init__(self, spec: EnvSpec, **encoder_kw) -> None:
+    def __init__(self, spec: EnvSpec, *, recurrent: bool = False, **encoder_kw) -> None:
         super().__init__()
         self.option_counts = spec.option_counts
         joint = math.prod(self.option_counts)
@@ -90,19 +229,32 @@ class PartiallyCentralizedPolicy(OptionPolicy):
         self.heads = nn.ModuleList(
             _head(enc.out_dim, joint, POLICY_HEAD_GAIN) for enc in self.encoders
         )
+        self.memory = (
+            OptionMemory(self.encoders[0].out_dim, slots=spec.num_agents) if recurrent else None
+        )
 
     def agent_joint_logits(self, obs: ObsBatch) -> list[Tensor]:
-        """Agent i's joint logits ``[B, K_0, ..., K_{N-1}]`` from ``z^i``, for each i."""
+        """Agent i's joint logits ``[B, K_0, ..., K_{N-1}]`` from ``z^i``, for each i
+        (feed-forward)."""
+        return self._agent_logits(self.encode(obs))
+
+    def _agent_logits(self, features: list[Tensor]) -> list[Tensor]:
         return [
-            head(enc(obs)).view(-1, *self.option_counts)
-            for enc, head in zip(self.encoders, self.heads, strict=True)
+            head(x).view(-1, *self.option_counts)
+            for x, head in zip(features, self.heads, strict=True)
         ]
 
-    def distribution(
-        self, obs: ObsBatch, choosing: Tensor, running: Tensor, available: Tensor
+    def encode(self, obs: ObsBatch) -> list[Tensor]:
+        return [enc(obs) for enc in self.encoders]
+
+    def advancing(self, choosing: Tensor) -> Tensor:
+        return choosing.bool()
+
+    def conditional(
+        self, features: list[Tensor], choosing: Tensor, running: Tensor, available: Tensor
     ) -> FactoredConditional:
         log_probs = partial_conditional_log_probs(
-            self.agent_joint_logits(obs), choosing, running, available
+            self._agent_logits(features), choosing, running, available
         )
         return FactoredConditional(log_probs, choosing, running)
 
@@ -162,16 +314,53 @@ class JointQNetwork(nn.Module):
 
 
 class CentralCritic(nn.Module):
-    """``V(z)`` on the joint observation (its own encoder: MAPPO keeps actor and critic apart)."""
+    """``V(z)`` on the joint observation (its own encoder: MAPPO keeps actor and critic apart).
 
-    def __init__(self, spec: EnvSpec, **encoder_kw) -> None:
+    ``recurrent``: a GRU after the encoder, one joint state advancing at every decision point,
+    used through :meth:`step` and :meth:`sequence` like a recurrent policy's.
+    """
+
+    def __init__(self, spec: EnvSpec, *, recurrent: bool = False, **encoder_kw) -> None:
         super().__init__()
         self.encoder = JointEncoder(spec, **encoder_kw)
         self.head = _head(self.encoder.out_dim, 1, 1.0)
+        self.memory = OptionMemory(self.encoder.out_dim) if recurrent else None
+
+    @property
+    def recurrent(self) -> bool:
+        return self.memory is not None
+
+    def initial_state(self, batch: int) -> Tensor | None:
+        return None if self.memory is None else self.memory.initial_state(batch)
 
     def value(self, obs: ObsBatch) -> Tensor:
-        """``[B]`` state values."""
-        return self.head(self.encoder(obs)).squeeze(-1)
+        """``[B]`` state values (feed-forward)."""
+        if self.memory is not None:
+            raise RuntimeError("a recurrent critic values through step() and sequence()")
+        return self._value(self.encoder(obs))
+
+    def _value(self, features: Tensor) -> Tensor:
+        return self.head(features).squeeze(-1)
 
     def forward(self, obs: ObsBatch) -> Tensor:
         return self.value(obs)
+
+    def step(
+        self, obs: ObsBatch, state: Tensor | None, starts: Tensor
+    ) -> tuple[Tensor, Tensor | None]:
+        """``[B]`` values of one decision point per row and the state after it (as
+        :meth:`OptionPolicy.step`)."""
+        if self.memory is None:
+            return self.value(obs), state
+        if state is None:
+            raise ValueError("a recurrent critic needs the state carried into the point")
+        features, state = self.memory.step([self.encoder(obs)], state, starts)
+        return self._value(features[0]), state
+
+    def sequence(self, obs: ObsBatch, state: Tensor, starts: Tensor, valid: Tensor) -> Tensor:
+        """Values along chunks of consecutive points, the ``valid`` rows (as
+        :meth:`OptionPolicy.sequence`)."""
+        if self.memory is None:
+            raise TypeError("a feed-forward critic has no sequence()")
+        features = self.memory.sequence([self.encoder(obs)], state, starts)
+        return self._value(features[0][valid.flatten()])

@@ -1,8 +1,11 @@
 """Learning smoke: ``async`` MAPPO on Tool Delivery (state observations) learns, seeded, with
-the product categorical and with the autoregressive conditional (``async-ar``).
+the product categorical, with the autoregressive conditional (``async-ar``) and with a GRU over
+the option-level history in policy and critic (``async-rnn``).
 
 The paper's method reaches its peak in ~50K samples; 25K low-level samples (≈ 30 s here) are
-enough to leave the uniform-random policy (≈ −66 on the canonical task) far behind.
+enough to leave the uniform-random policy (≈ −66 on the canonical task) far behind. The
+recurrent policy learns more slowly at first (measured here, seed 0: a mean return of 139 over
+20-25K samples, 214 over 28-35K), so it gets 35K.
 """
 
 import numpy as np
@@ -13,11 +16,11 @@ from maopg.experiment.config import TrainConfig
 from maopg.experiment.run_dir import read_metrics
 from maopg.experiment.trainer import train
 
-BUDGET = 25_000
+BUDGET = {"async": 25_000, "async-ar": 25_000, "async-rnn": 35_000}
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("method", ["async", "async-ar"])
+@pytest.mark.parametrize("method", list(BUDGET))
 def test_async_beats_the_random_policy_by_a_wide_margin(tmp_path, method):
     random_returns = [r.ret for r in evaluate_reference("tool_delivery", "random", 40, seed=0)]
     random_mean = float(np.mean(random_returns))
@@ -26,7 +29,7 @@ def test_async_beats_the_random_policy_by_a_wide_margin(tmp_path, method):
         task="tool_delivery",
         method=method,
         seed=0,
-        total_samples=BUDGET,
+        total_samples=BUDGET[method],
         progress=False,
         video=method == "async",  # the video path is this test's too; once is enough
         eval_episodes=5 if method == "async" else 0,  # and so is the final evaluation
@@ -34,7 +37,7 @@ def test_async_beats_the_random_policy_by_a_wide_margin(tmp_path, method):
     )
     rows = read_metrics(train(config) / "metrics.csv")
     # Episode-weighted mean return over the last fifth of training.
-    late = [r for r in rows if int(r["samples"]) > 0.8 * BUDGET and int(r["episodes"]) > 0]
+    late = [r for r in rows if int(r["samples"]) > 0.8 * BUDGET[method] and int(r["episodes"]) > 0]
     episodes = np.array([int(r["episodes"]) for r in late])
     returns = np.array([float(r["episode_return"]) for r in late])
     trained_mean = float((episodes * returns).sum() / episodes.sum())

@@ -18,6 +18,8 @@ from maopg.env import make_env
 from maopg.env.pettingzoo import OptionParallelEnv
 from maopg.env.rollout import RandomPolicy, run_episode
 from maopg.env.video import record_episode
+from maopg.experiment.evaluate import evaluate
+from maopg.experiment.loading import load_trained
 from maopg.experiment.train_cli import main as train_main
 from maopg.tasks import registry
 from maopg.tasks.pettingzoo_task import register_pettingzoo
@@ -139,6 +141,30 @@ def test_workers_build_a_registered_pettingzoo_task(tasks, tmp_path):
         "progress=false",
     ]
     assert train_main([*args, "--run-dir", str(run)]) == 0
+
+
+def test_a_recurrent_policy_trained_on_a_pettingzoo_task_acts_episode_by_episode(tasks, tmp_path):
+    """``partial-rnn`` (a GRU state per agent) on the couriers: the loaded actor carries its
+    state across decision points and restarts it with every episode, so the second of two
+    episodes played by one actor is the episode a fresh actor plays; sampling is seeded."""
+    run = tmp_path / "run"
+    args = ["--task", "couriers", "--method", "partial-rnn", "--total-samples", "100"]
+    args += ["batch_ticks=50", "ppo.epochs=1", "ppo.chunk_length=3", "video=false", "plot=false"]
+    assert train_main([*args, "progress=false", "--run-dir", str(run)]) == 0
+    trained = load_trained(run)
+    assert trained.policy.recurrent
+    env = trained.make_env(0)
+    try:
+        both = evaluate(env, trained.actor(greedy=True), 2, seed=0)
+        second = evaluate(env, trained.actor(greedy=True), 1, seed=1)
+        sampled = [evaluate(env, trained.actor(greedy=False, seed=3), 2).summary for _ in "ab"]
+    finally:
+        env.close()
+    assert both.returns[1:] == second.returns and both.lengths[1:] == second.lengths
+    assert both.option_step_rewards[-len(second.option_step_rewards) :] == (
+        second.option_step_rewards
+    )
+    assert sampled[0] == sampled[1]
 
 
 def test_the_pettingzoo_view_of_the_wrapped_environment(tasks):

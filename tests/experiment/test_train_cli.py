@@ -14,6 +14,7 @@ from pathlib import Path
 
 import imageio.v2 as imageio
 import pytest
+import torch
 
 from maopg.env.rollout import run_episode
 from maopg.experiment.config import TrainConfig, parse_overrides
@@ -157,8 +158,11 @@ def test_every_method_trains_a_tiny_budget(tmp_path, task, method):
         assert json.loads((run_dir / "done.json").read_text())["samples"] >= 180
 
 
-def test_kill_and_resume_reproduces_the_uninterrupted_run(tmp_path):
-    common = ["--seed", "5", "--total-samples", "1200", *TINY]
+@pytest.mark.parametrize(("method", "samples"), [("async", 1200), ("partial-rnn", 480)])
+def test_kill_and_resume_reproduces_the_uninterrupted_run(tmp_path, method, samples):
+    """Bit for bit, curve and weights; a recurrent run (per-agent GRU states, carried across
+    iterations) included: its states are in the checkpoint."""
+    common = ["--seed", "5", "--total-samples", str(samples), *tiny(method)]
     reference = tmp_path / "reference"
     main([*common, "--run-dir", str(reference)])
 
@@ -182,12 +186,20 @@ def test_kill_and_resume_reproduces_the_uninterrupted_run(tmp_path):
 
     main(["--resume", "--run-dir", str(killed), "progress=false"])
     assert _deterministic(_rows(killed)) == _deterministic(_rows(reference))
-    assert json.loads((killed / "done.json").read_text())["samples"] >= 1200
+    assert json.loads((killed / "done.json").read_text())["samples"] >= samples
+    resumed, uninterrupted = (load_checkpoint(d / "final.pt") for d in (killed, reference))
+    for network in ("policy", "critic"):
+        for name, tensor in uninterrupted[network].items():
+            assert torch.equal(resumed[network][name], tensor), (network, name)
 
 
-@pytest.mark.parametrize("backend", ["threads", "processes"])
-def test_every_backend_gives_the_same_curve_as_in_process(tmp_path, backend):
-    common = ["--seed", "2", "--total-samples", "240", *TINY, "--images", "num_workers=2"]
+@pytest.mark.parametrize(
+    ("backend", "method"), [("threads", "async"), ("processes", "async"), ("threads", "async-rnn")]
+)
+def test_every_backend_gives_the_same_curve_as_in_process(tmp_path, backend, method):
+    """From images; a recurrent run too (its GRU states live in the learner, never in the
+    environments' workers)."""
+    common = ["--seed", "2", "--total-samples", "240", *tiny(method), "--images", "num_workers=2"]
     main([*common, "--run-dir", str(tmp_path / "serial"), "backend=local"])
     main([*common, "--run-dir", str(tmp_path / backend), f"backend={backend}"])
     serial = _deterministic(_rows(tmp_path / "serial"))
@@ -216,10 +228,11 @@ def test_existing_run_needs_resume_and_corrupt_checkpoint_is_named(tmp_path, use
     user_error(main, ["--resume", "--run-dir", str(run_dir), "--seed", "9"], r"seed \(saved 0")
 
 
-@pytest.mark.parametrize("method", ["async", "mac-dqn"])
+@pytest.mark.parametrize("method", ["async", "mac-dqn", "partial-rnn"])
 def test_video_of_the_trained_policy(tmp_path, method):
     """``video=true`` leaves the seed-0 episode of the policy saved in ``final.pt``, sampled as
-    in training (``video_sample=false``: greedy)."""
+    in training (``video_sample=false``: greedy); a recurrent policy's too (its actor carries
+    the GRU states through the episode)."""
     run_dir = tmp_path / method
     args = ["--total-samples", "60", "--run-dir", str(run_dir), *tiny(method)]
     main([*args, "video=true", "env.max_ticks=30"])

@@ -145,7 +145,10 @@ def test_the_same_seed_gives_the_same_trajectory(size) -> None:
         ({"turtlebots": 7}, "env.turtlebots must be <= 6, got 7"),
         ({"fetches": 3}, "env.fetches must be <= 2, got 3"),
         ({"humans": 0}, "env.humans must be >= 1, got 0"),
-        ({"humans": 3}, r"env.humans must be at most 2 x env.fetches .* got humans=3 with fetches=1"),
+        (
+            {"humans": 3},
+            r"env.humans must be at most 2 x env.fetches .* got humans=3 with fetches=1",
+        ),
     ],
 )
 def test_impossible_teams_are_refused_by_name(settings, message: str) -> None:

@@ -1,0 +1,156 @@
+"""Recurrent option policies and critic (:mod:`maopg.policy.memory`) on real Tool Delivery
+decision points: where the GRU state advances, where it restarts, and that the chunked forward
+of training computes what the step-by-step forward of collection computed."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+import torch
+
+from maopg.env import make_env
+from maopg.env.vector import EnvConfig, SeededVectorEnv
+from maopg.learner import LearnerSetup, MAPPOLearner, PPOConfig
+from maopg.learner.mappo import autoregressive_policy, centralized_policy, partial_policy
+from maopg.policy import DistributionActor, PartiallyCentralizedPolicy
+
+SHORT = {"max_ticks": 25}
+"""Episodes of 25 ticks: several end inside a rollout, and inside training chunks."""
+
+
+def test_per_agent_states_freeze_while_an_agent_continues_and_restart_with_an_episode():
+    torch.manual_seed(0)
+    env = make_env("tool_delivery", "continue", seed=0, overrides=SHORT)
+    policy = PartiallyCentralizedPolicy(env.spec, hidden=16, recurrent=True)
+    actor = DistributionActor(policy, greedy=False, seed=1)
+    fresh = policy.initial_state(1)
+    seen = {"frozen": 0, "advanced": 0, "restarts": 0}
+    episode = 0
+    try:
+        point = env.reset(seed=episode)
+        for _ in range(40):
+            before = actor.state.clone()
+            joint = actor(point)
+            after = actor.state
+            if point.ticks == 0:
+                # A reset point reads the zero state, whatever the previous episode left.
+                twin = DistributionActor(policy, greedy=False, seed=1)
+                twin(point)
+                torch.testing.assert_close(after, twin.state, rtol=0, atol=0)
+                seen["restarts"] += int(bool(before.abs().sum() > 0))
+            else:
+                for agent, choosing in enumerate(point.choosing):
+                    same = torch.equal(after[0, agent], before[0, agent])
+                    assert same != bool(choosing), (point.ticks, agent, choosing)
+                    seen["frozen" if same else "advanced"] += 1
+            point = env.step(joint)
+            if point.done:
+                episode += 1
+                point = env.reset(seed=episode)
+    finally:
+        env.close()
+    assert fresh.abs().sum() == 0
+    assert seen["frozen"] > 0 and seen["advanced"] > 0 and seen["restarts"] >= 1, seen
+
+
+def _learner(envs: SeededVectorEnv, builder) -> MAPPOLearner:
+    torch.manual_seed(0)
+    config = PPOConfig(recurrent=True, chunk_length=5, epochs=2)
+    setup = LearnerSetup(
+        spec=envs.spec,
+        config=config,
+        num_envs=envs.num_envs,
+        batch_ticks=80,
+        gamma=0.99,
+        hidden=16,
+        layers=1,
+        sample_gen=torch.Generator().manual_seed(3),
+        update_gen=torch.Generator().manual_seed(4),
+    )
+    return MAPPOLearner(builder(envs.spec, hidden=16, layers=1, config=config), setup)
+
+
+@pytest.mark.parametrize("builder", [centralized_policy, partial_policy, autoregressive_policy])
+def test_the_chunked_forward_equals_the_step_by_step_forward_of_collection(builder):
+    envs = SeededVectorEnv(
+        EnvConfig(task="tool_delivery", strategy="continue", overrides=SHORT), num_envs=2, seed=7
+    )
+    try:
+        envs.reset()
+        learner = _learner(envs, builder)
+        setup = learner.setup
+        learner.setup = dataclasses.replace(setup, batch_ticks=10)
+        learner.collect(envs)  # the next rollout starts mid-episode, from carried states
+        learner.setup = setup
+        rollout = learner.collect(envs)
+    finally:
+        envs.close()
+    steps = rollout.num_steps
+    advantages, returns, _ = rollout.advantages(None, gamma=0.99, lam=0.95, form="smdp")
+    batch = rollout.training_batch(advantages, returns)
+    assert batch.starts.sum() >= 2  # episodes end inside the rollout
+    assert not batch.starts[:2].any() and batch.policy_state[:2].abs().min() > 0
+    chunks = batch.chunks(5)
+    valid = chunks >= 0
+    assert chunks.shape[1] == 5 and steps > 5
+    resets_inside = batch.starts[chunks.clamp(min=0)][:, 1:] & valid[:, 1:]
+    assert resets_inside.any()
+    assert sorted(chunks[valid].tolist()) == list(range(len(batch)))  # every row once
+    padded = torch.where(valid, chunks, chunks[:, :1]).flatten()
+    rows = batch.rows(padded)
+    starts = batch.starts[padded].view(valid.shape)
+    kept = chunks[valid]
+    with torch.no_grad():
+        dist = learner.policy.sequence(
+            rows.obs,
+            rows.choosing,
+            rows.running,
+            rows.available,
+            batch.policy_state[chunks[:, 0]],
+            starts,
+            valid,
+        )
+        values = learner.critic.sequence(rows.obs, batch.critic_state[chunks[:, 0]], starts, valid)
+        log_prob = dist.log_prob(batch.joint[kept])
+    torch.testing.assert_close(log_prob, batch.old_log_prob[kept], rtol=1e-5, atol=1e-6)
+    torch.testing.assert_close(values, batch.old_value[kept], rtol=1e-5, atol=1e-6)
+
+    # The PPO update runs on these chunks, and backpropagation reaches both GRUs.
+    memories = (learner.policy.memory, learner.critic.memory)
+    before = [{k: v.clone() for k, v in m.state_dict().items()} for m in memories]
+    stats = learner.ppo.update(batch, learner.setup.update_gen)
+    assert stats["entropy"] > 0 and np.isfinite(stats["policy_loss"])
+    for memory, old in zip(memories, before, strict=True):
+        assert any(not torch.equal(old[k], v) for k, v in memory.state_dict().items())
+
+
+def test_recurrent_policies_refuse_the_feed_forward_path():
+    env = make_env("tool_delivery", seed=0)
+    try:
+        spec = env.spec
+    finally:
+        env.close()
+    policy = PartiallyCentralizedPolicy(spec, hidden=8, recurrent=True)
+    with pytest.raises(RuntimeError, match="step"):
+        policy.distribution(None, None, None, None)  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match=r"ppo\.recurrent=true"):
+        _learner_with(spec, PartiallyCentralizedPolicy(spec, hidden=8))
+    with pytest.raises(ValueError, match=r"ppo\.chunk_length must be >= 1"):
+        PPOConfig(recurrent=True, chunk_length=0).validate()
+
+
+def _learner_with(spec, policy) -> MAPPOLearner:
+    setup = LearnerSetup(
+        spec=spec,
+        config=PPOConfig(recurrent=True),
+        num_envs=1,
+        batch_ticks=10,
+        gamma=0.99,
+        hidden=8,
+        layers=1,
+        sample_gen=torch.Generator(),
+        update_gen=torch.Generator(),
+    )
+    return MAPPOLearner(policy, setup)
