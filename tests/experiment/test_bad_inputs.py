@@ -20,6 +20,7 @@ from maopg.env import make_env
 from maopg.env.pettingzoo import OptionParallelEnv
 from maopg.experiment.eval_cli import main as eval_main
 from maopg.experiment.reproduce import Cell, _train_args
+from maopg.experiment.studies import get_study
 from maopg.experiment.train_cli import main as train_main
 from maopg.experiment.train_cli import parse_args
 
@@ -273,7 +274,8 @@ def test_the_grid_gives_its_settings_to_every_cell_as_train_does(tmp_path, capsy
     assert "tool_delivery/async/seed0: would start" in capsys.readouterr().out
     assert eval_main([*grid, "ppo.epochs=0"]) == 2
     _one_line(capsys.readouterr().err, r"ppo\.epochs must be >= 1, got 0")
-    args = _train_args(Cell("tool_delivery", "async", 0), runs, ["ppo.epochs=2"], grid_file)
+    paper = get_study("paper")
+    args = _train_args(Cell("tool_delivery", "async", 0), runs, paper, ["ppo.epochs=2"], grid_file)
     assert args[:2] == ["--config", str(grid_file)] and args[-1] == "ppo.epochs=2"
     cell = parse_args(args)[0].resolved()
     assert (cell.seed, cell.hidden, cell.learner.epochs) == (0, 16, 2) and not runs.exists()
