@@ -21,7 +21,12 @@ from maopg.env.contract import EnvSpec, Strategy
 from maopg.experiment.run_dir import TIMING_COLUMNS
 from maopg.learner import SHARED_COLUMNS, Learner, MacDQNLearner, MAPPOLearner
 from maopg.learner.macdqn import joint_q_network
-from maopg.learner.mappo import autoregressive_policy, centralized_policy, partial_policy
+from maopg.learner.mappo import (
+    autoregressive_policy,
+    centralized_policy,
+    partial_factored_policy,
+    partial_policy,
+)
 
 PolicyBuilder = Callable[..., nn.Module]
 """``builder(spec, *, hidden, layers, config) -> network``: the acting network of a method from
@@ -116,9 +121,12 @@ register_method(Method("end2end", "primitive", MAPPOLearner, centralized_policy)
 register_method(Method("mac-dqn", "continue", MacDQNLearner, joint_q_network))
 register_method(Method("partial", "continue", MAPPOLearner, partial_policy))
 # The conditional factored by the chain rule over the choosing agents, for teams whose joint
-# option set is too large for the product categorical (maopg.policy.autoregressive). A sync
-# variant is one line more: Method("sync-cut-ar", "any", MAPPOLearner, autoregressive_policy).
-register_method(Method("async-ar", "continue", MAPPOLearner, autoregressive_policy, in_grid=False))
+# option set is too large for the product categorical (maopg.policy.autoregressive), and the
+# paper's baselines built on it: the methods of the at-scale comparison (study "teams").
+SCALES = {"in_grid": False}
+register_method(Method("async-ar", "continue", MAPPOLearner, autoregressive_policy, **SCALES))
+register_method(Method("sync-cut-ar", "any", MAPPOLearner, autoregressive_policy, **SCALES))
+register_method(Method("partial-ar", "continue", MAPPOLearner, partial_factored_policy, **SCALES))
 # Recurrent policies and critics (a GRU over the option-level history, rMAPPO): for partially
 # observable tasks such as Water Filling. Any MAPPO method is recurrent with ppo.recurrent=true;
 # these three are the rows of the recurrent benchmark (README "Recurrent policies").

@@ -49,6 +49,7 @@ from maopg.policy import (
     JointOptionDistribution,
     ObsBatch,
     OptionPolicy,
+    PartialFactoredPolicy,
     PartiallyCentralizedPolicy,
     episode_starts,
     stack_conditions,
@@ -285,6 +286,16 @@ def autoregressive_policy(
     """The same conditional, factored by the chain rule: one small factor per choosing agent
     (linear in the team size, where the product categorical grows as ``ΠK_i``)."""
     return AutoregressivePolicy(
+        spec, hidden=hidden, layers=layers, recurrent=recurrent_setting(config)
+    )
+
+
+def partial_factored_policy(
+    spec: EnvSpec, *, hidden: int, layers: int, config: PPOConfig
+) -> PartialFactoredPolicy:
+    """The partially centralized policy with one factor per agent instead of joint logits
+    (linear in the team size, where ``partial``'s heads grow as ``ΠK_i``)."""
+    return PartialFactoredPolicy(
         spec, hidden=hidden, layers=layers, recurrent=recurrent_setting(config)
     )
 

@@ -2,7 +2,11 @@
 and their actors."""
 
 from maopg.policy.actors import DistributionActor, QActor, episode_starts
-from maopg.policy.autoregressive import AutoregressiveConditional, AutoregressivePolicy
+from maopg.policy.autoregressive import (
+    AutoregressiveConditional,
+    AutoregressivePolicy,
+    PartialFactoredPolicy,
+)
 from maopg.policy.batch import ObsBatch, stack_conditions, vector_slices
 from maopg.policy.conditional import (
     ConditionalJoint,
@@ -45,6 +49,7 @@ __all__ = [
     "ObsBatch",
     "OptionMemory",
     "OptionPolicy",
+    "PartialFactoredPolicy",
     "PartiallyCentralizedPolicy",
     "QActor",
     "conditional_argmax",

@@ -40,7 +40,7 @@ from torch import Tensor, nn
 from maopg.env.contract import EnvSpec
 from maopg.policy.batch import ObsBatch
 from maopg.policy.conditional import agent_masks
-from maopg.policy.encoders import JointEncoder, init_orthogonal
+from maopg.policy.encoders import JointEncoder, LocalEncoder, init_orthogonal
 from maopg.policy.memory import OptionMemory
 from maopg.policy.networks import POLICY_HEAD_GAIN, EncodedPolicy
 
@@ -64,20 +64,35 @@ class AutoregressivePolicy(EncodedPolicy):
         super().__init__()
         self.option_counts = spec.option_counts
         n = len(self.option_counts)
-        self.encoder = JointEncoder(spec, hidden=hidden, layers=layers, **encoder_kw)
+        width = self._build_encoders(spec, hidden=hidden, layers=layers, **encoder_kw)
         # Agent j's known option as a one-hot over K_j + 1 slots, the last meaning "not decided".
         slots = [k + 1 for k in self.option_counts]
         self.register_buffer("offsets", torch.tensor([0, *slots[:-1]]).cumsum(0), persistent=False)
         self.register_buffer("undecided", torch.tensor(self.option_counts), persistent=False)
         self.context = sum(slots)
         self.factor = nn.Sequential(
-            nn.Linear(self.encoder.out_dim + 2 * n + self.context, hidden),
+            nn.Linear(width + 2 * n + self.context, hidden),
             nn.ReLU(),
         )
         init_orthogonal(self.factor, math.sqrt(2.0))
         self.head = nn.Linear(hidden, max(self.option_counts))
         init_orthogonal(self.head, POLICY_HEAD_GAIN)
-        self.memory = OptionMemory(self.encoder.out_dim) if recurrent else None
+        self.memory = OptionMemory(width, slots=self.slots) if recurrent else None
+
+    slots = 1
+    """Memory slots: one joint state."""
+    sees_earlier_choices = True
+    """Whether a factor sees the options drawn before it in the step (the chain rule)."""
+
+    def _build_encoders(self, spec: EnvSpec, **encoder_kw) -> int:
+        """Build the encoders; returns the width of the features a factor sees."""
+        self.encoder = JointEncoder(spec, **encoder_kw)
+        return self.encoder.out_dim
+
+    def factor_features(self, features: Tensor, agents: Tensor) -> Tensor:
+        """``[B, A, F]``: the features factor ``a`` sees — the joint ones, for every agent."""
+        b, width = features.shape
+        return features.unsqueeze(1).expand(b, len(agents), width)
 
     def factor_logits(
         self, features: Tensor, choosing: Tensor, known: Tensor, agents: Tensor
@@ -93,7 +108,7 @@ class AutoregressivePolicy(EncodedPolicy):
         identity = nn.functional.one_hot(agents, n).float().expand(b, a, n)
         inputs = torch.cat(
             [
-                features.unsqueeze(1).expand(b, a, features.shape[-1]),
+                self.factor_features(features, agents),
                 identity,
                 choosing.float().unsqueeze(1).expand(b, a, n),
                 one_hot,
@@ -109,6 +124,50 @@ class AutoregressivePolicy(EncodedPolicy):
         self, features: list[Tensor], choosing: Tensor, running: Tensor, available: Tensor
     ) -> AutoregressiveConditional:
         return AutoregressiveConditional(self, features[0], choosing, running, available)
+
+
+class PartialFactoredPolicy(AutoregressivePolicy):
+    """The partially centralized policy (paper §III-D) at any team size: each choosing agent
+    draws from its own factor ``π_i(o^i | z^i, c)`` — its local observation, who chooses and
+    what the continuing agents run — and not from the others' draws.
+
+    The paper's partial policy gives every agent joint logits over all ``ΠK`` options and
+    marginalises the other choosing agents out, so what agent ``i`` draws from is exactly such
+    a marginal; this parameterises that marginal directly, with one shared factor head (and the
+    agent's identity) over per-agent encoders, so its cost is linear in the team size. As in the
+    paper the choosing agents draw independently given ``c``: :attr:`sees_earlier_choices` is
+    off, and the entropy along a joint is the exact joint entropy. ``recurrent``: one state per
+    agent, advancing only at that agent's own decisions.
+    """
+
+    sees_earlier_choices = False
+
+    @property
+    def slots(self) -> int:  # type: ignore[override]
+        """One memory slot per agent."""
+        return len(self.option_counts)
+
+    def _build_encoders(self, spec: EnvSpec, **encoder_kw) -> int:
+        self.encoders = nn.ModuleList(
+            LocalEncoder(spec, i, **encoder_kw) for i in range(spec.num_agents)
+        )
+        return self.encoders[0].out_dim
+
+    def encode(self, obs: ObsBatch) -> list[Tensor]:
+        return [encoder(obs) for encoder in self.encoders]
+
+    def advancing(self, choosing: Tensor) -> Tensor:
+        return choosing.bool()
+
+    def factor_features(self, features: Tensor, agents: Tensor) -> Tensor:
+        """Agent ``a``'s own features ``[B, A, F]`` (``features`` is ``[B, N, F]``)."""
+        return features[:, agents]
+
+    def conditional(
+        self, features: list[Tensor], choosing: Tensor, running: Tensor, available: Tensor
+    ) -> AutoregressiveConditional:
+        stacked = torch.stack(features, dim=1)
+        return AutoregressiveConditional(self, stacked, choosing, running, available)
 
 
 class AutoregressiveConditional:
@@ -144,6 +203,8 @@ class AutoregressiveConditional:
         "not decided" (``K_j``) for itself and later choosing agents."""
         n = self.choosing.shape[-1]
         earlier = torch.arange(n).unsqueeze(0) < agents.unsqueeze(1)  # [A, N]
+        if not self.policy.sees_earlier_choices:
+            earlier = torch.zeros_like(earlier)
         known = ~self.choosing.unsqueeze(1) | (self.choosing.unsqueeze(1) & earlier)
         values = torch.where(self.choosing, joint, self.running).unsqueeze(1)
         return torch.where(known, values, self.policy.undecided)

@@ -37,7 +37,7 @@ from maopg.experiment.runs import (
     samples_to_threshold,
     trailing_mean,
 )
-from maopg.experiment.studies import Study, StudyTask, get_study, register_study
+from maopg.experiment.studies import Study, StudyTask, get_study, register_study, study_names
 from maopg.experiment.tables import peak_table, threshold_table
 from maopg.experiment.train_cli import main as train_main
 from maopg.policy import DistributionActor, QActor
@@ -495,3 +495,13 @@ def test_a_registered_study_runs_its_settings_and_scores_against_its_own_referen
         baseline_root=runs_root,
     )
     assert "| tool_delivery | async | 1 |" in (tmp_path / "variant" / "tables.md").read_text()
+
+
+@pytest.mark.parametrize("name", study_names())
+def test_every_registered_study_plans_runs_that_train_accepts(tmp_path, name):
+    """Each cell's command line (task settings, budgets, method presets) is read as train
+    reads it before anything runs (``check_cells``), so a dry run proves every cell starts."""
+    dry = run_grid(tmp_path, study=name, dry_run=True, log=lambda _: None)
+    study = get_study(name)
+    assert set(dry.values()) == {"would start"}
+    assert len(dry) == len(study.methods) * sum(len(t.seeds) for t in study.tasks)

@@ -11,7 +11,7 @@ import torch
 
 from maopg.env.contract import AgentSpec, EnvSpec, Strategy
 from maopg.policy import ObsBatch, joint_slice_mask
-from maopg.policy.autoregressive import AutoregressivePolicy
+from maopg.policy.autoregressive import AutoregressivePolicy, PartialFactoredPolicy
 
 TEAMS = {
     "two": (3, 6),
@@ -46,9 +46,13 @@ def random_conditions(counts: tuple[int, ...], batch: int, seed: int):
     return obs, choosing, running, torch.cat(masks, dim=-1)
 
 
-def build(counts: tuple[int, ...], seed: int = 0) -> AutoregressivePolicy:
+POLICIES = {"chain": AutoregressivePolicy, "partial": PartialFactoredPolicy}
+"""The chain rule over the joint observation, and per-agent factors on local observations."""
+
+
+def build(counts: tuple[int, ...], seed: int = 0, kind: str = "chain") -> AutoregressivePolicy:
     torch.manual_seed(seed)
-    policy = AutoregressivePolicy(make_spec(counts), hidden=32, layers=1)
+    policy = POLICIES[kind](make_spec(counts), hidden=32, layers=1)
     with torch.no_grad():  # a far-from-uniform policy, so the checks below are not trivial
         policy.head.weight.mul_(300.0)
     return policy
@@ -79,10 +83,11 @@ def brute_force(policy, obs, choosing, running, available) -> tuple[torch.Tensor
     return log_p, mask
 
 
+@pytest.mark.parametrize("kind", POLICIES)
 @pytest.mark.parametrize("team", TEAMS)
-def test_probabilities_over_the_slice_sum_to_one_and_match_the_factors(team):
+def test_probabilities_over_the_slice_sum_to_one_and_match_the_factors(team, kind):
     counts = TEAMS[team]
-    policy = build(counts)
+    policy = build(counts, kind=kind)
     obs, choosing, running, available = random_conditions(counts, 12, seed=1)
     with torch.no_grad():
         log_p, _ = brute_force(policy, obs, choosing, running, available)
@@ -102,10 +107,11 @@ def test_probabilities_over_the_slice_sum_to_one_and_match_the_factors(team):
         torch.testing.assert_close(dist.log_prob(joint), total)
 
 
+@pytest.mark.parametrize("kind", POLICIES)
 @pytest.mark.parametrize("team", TEAMS)
-def test_sampling_frequencies_match_and_respect_the_condition(team):
+def test_sampling_frequencies_match_and_respect_the_condition(team, kind):
     counts = TEAMS[team]
-    policy = build(counts, seed=2)
+    policy = build(counts, seed=2, kind=kind)
     obs, choosing, running, available = random_conditions(counts, 3, seed=3)
     with torch.no_grad():
         log_p, mask = brute_force(policy, obs, choosing, running, available)
@@ -203,3 +209,25 @@ def test_fits_a_correlated_conditional_no_product_of_marginals_can():
         kl.backward()
         optimizer.step()
     assert kl.item() < 0.01, (kl.item(), product_kl)
+
+
+def test_partial_factors_are_independent_local_marginals_with_the_exact_entropy():
+    """partial-ar: agent i's factor sees its own observation, not the others' (nor their
+    draws), so the joint is the product of the marginals and the entropy is exact."""
+    counts = TEAMS["three"]
+    policy = build(counts, seed=5, kind="partial")
+    obs, choosing, running, available = random_conditions(counts, 8, seed=6)
+    with torch.no_grad():
+        log_p, mask = brute_force(policy, obs, choosing, running, available)
+        exact = -(log_p.exp() * log_p.masked_fill(~mask, 0.0)).sum(-1)
+        dist = policy.distribution(obs, choosing, running, available)
+        dist.log_prob(dist.sample(torch.Generator().manual_seed(7)))
+        torch.testing.assert_close(dist.entropy(), exact)
+        # another agent's observation (agent 2's slice of the vectors) leaves agent 0's factor be
+        other = ObsBatch(obs.vectors.clone())
+        other.vectors[:, 8:] += 5.0
+        joint = dist.mode()
+        before = dist.factor_log_probs(joint)[:, 0]
+        after = policy.distribution(other, choosing, running, available).factor_log_probs(joint)
+        torch.testing.assert_close(after[:, 0], before)
+        assert not torch.allclose(after[:, 2], dist.factor_log_probs(joint)[:, 2])
