@@ -1,7 +1,8 @@
 """An existing PettingZoo environment as a task (:mod:`maopg.tasks.pettingzoo_task`): the option
 contract, asynchronous decisions from an environment's "busy" infos, the PettingZoo API round
-trip, and learning — ``async`` and ``partial`` on MPE's Simple Spread (``mpe2``, a package this
-project did not write) beat its random policy."""
+trip, the inference recipe (``load_policy`` on decision points and on the view's dicts, for a
+feed-forward and a recurrent policy), and learning — ``async`` and ``partial`` on MPE's Simple
+Spread (``mpe2``, a package this project did not write) beat its random policy."""
 
 from __future__ import annotations
 
