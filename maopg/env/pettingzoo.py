@@ -5,38 +5,74 @@ Every agent is live until the episode ends, so the observation dict always holds
 its option has a mask with only that option allowed, so any masked sample re-submits it and the
 agent simply continues; ``infos[agent]["choosing"]`` says who really chooses (RLlib-style
 consumers keep only those). Rewards are the shared reward summed since the previous decision
-point; ``infos[agent]["duration"]`` carries the ticks it spans.
+point; ``infos[agent]["duration"]`` carries the ticks it spans and
+``infos[agent]["discounted_reward"]`` its γ-discounted sum (``Σ_j γ^j r_j``), which is what an
+outside learner needs for the SMDP target ``discounted_reward + γ^duration · V(next)``.
 
 An action is an integer (a Python or NumPy integer) per agent. A choosing agent must send one;
 a continuing agent may send nothing or its running option (``infos[agent]["running"]``, the one
 option its mask allows), anything else is refused: a float, string, NaN or ``None``, an agent
 the environment does not have, or another option for an agent still running one each raise a
 ``ValueError`` naming the agent and the action — nothing is silently replaced.
+
+:meth:`OptionParallelEnv.state` is the joint observation vector a centralized critic sees (the
+agents' vectors concatenated in agent order); camera images are not part of it — they stay in
+each agent's observation under ``"image"``. :func:`decision_point` turns an observation dict and
+its infos back into the :class:`DecisionPoint` they were made from, so anything that acts on
+decision points (a trained policy, a reference policy) acts on the PettingZoo view too.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from typing import Any, ClassVar
 
 import gymnasium as gym
 import numpy as np
 from pettingzoo import ParallelEnv
 
+from maopg.env import make_env
 from maopg.env.contract import DecisionPoint
 from maopg.env.option_env import OptionEnv
+from maopg.env.video import FrameComposer, Overlay, state_lines
+
+RENDER_MODES = ("rgb_array",)
+INFO_KEYS = ("choosing", "running", "duration", "ticks", "discounted_reward")
+"""What ``infos[agent]`` holds at every reset and step (all scalars, so that wrappers such as
+TorchRL's ``PettingZooWrapper`` can give them a spec)."""
 
 
 class OptionParallelEnv(ParallelEnv):
     """``ParallelEnv`` adapter; observations are dicts with ``observation``, ``action_mask``
-    and, when the task renders cameras, ``image``."""
+    and, when the task renders cameras, ``image``.
 
-    metadata: ClassVar[dict[str, Any]] = {"name": "maopg_option_env", "render_modes": []}
+    ``render_mode="rgb_array"`` makes :meth:`render` return the frame a rollout video shows at
+    this decision point (:class:`~maopg.env.video.FrameComposer`: the overview camera, the state
+    panel and every robot's camera); its renderers are made at the first call, so a view that
+    never renders opens no GL context.
+    """
 
-    def __init__(self, env: OptionEnv) -> None:
+    metadata: ClassVar[dict[str, Any]] = {
+        "name": "maopg_option_env",
+        "render_modes": list(RENDER_MODES),
+        "is_parallelizable": True,
+    }
+
+    def __init__(self, env: OptionEnv, render_mode: str | None = None) -> None:
+        if render_mode is not None and render_mode not in RENDER_MODES:
+            raise ValueError(
+                f"render_mode must be None or one of {RENDER_MODES}, got {render_mode!r}"
+            )
         self.env = env
+        self.render_mode = render_mode
         self.possible_agents = list(env.spec.agent_names)
         self.agents: list[str] = []
         self._point: DecisionPoint | None = None
+        self._return = 0.0
+        self._tick_reward: float | None = None
+        self._composer: FrameComposer | None = None
+        if render_mode is not None:
+            env.add_tick_listener(self._on_tick)
         # PettingZoo requires the very same space object on every call.
         self._observation_spaces: dict[str, gym.spaces.Dict] = {}
         self._action_spaces: dict[str, gym.spaces.Discrete] = {}
@@ -49,6 +85,8 @@ class OptionParallelEnv(ParallelEnv):
                 spaces["image"] = gym.spaces.Box(0, 255, env.spec.image_shape, np.uint8)
             self._observation_spaces[agent.name] = gym.spaces.Dict(spaces)
             self._action_spaces[agent.name] = gym.spaces.Discrete(agent.num_options)
+        state_size = sum(agent.vector_size for agent in env.spec.agents)
+        self.state_space = gym.spaces.Box(-np.inf, np.inf, (state_size,), np.float32)
 
     def observation_space(self, agent: str) -> gym.spaces.Dict:
         return self._observation_spaces[agent]
@@ -61,6 +99,7 @@ class OptionParallelEnv(ParallelEnv):
     ) -> tuple[dict[str, dict[str, np.ndarray]], dict[str, dict[str, Any]]]:
         self._point = self.env.reset(seed=seed)
         self.agents = list(self.possible_agents)
+        self._return, self._tick_reward = 0.0, None
         return self._observations(), self._infos()
 
     def step(self, actions: dict[str, int]) -> tuple[dict, dict, dict, dict, dict]:
@@ -68,6 +107,7 @@ class OptionParallelEnv(ParallelEnv):
         if point is None or not self.agents:
             raise ValueError("step() called before reset() or after the episode ended")
         self._point = point = self.env.step(self._joint(point, actions))
+        self._return += point.reward
         observations, infos = self._observations(), self._infos()
         rewards = dict.fromkeys(self.agents, float(point.reward))
         terminated = dict.fromkeys(self.agents, point.terminated)
@@ -76,8 +116,47 @@ class OptionParallelEnv(ParallelEnv):
             self.agents = []
         return observations, rewards, terminated, truncated, infos
 
+    def state(self) -> np.ndarray:
+        """The joint observation: every agent's vector, concatenated in agent order (float32
+        ``[Σ vector_size]``, :attr:`state_space`), as the centralized critic sees it."""
+        point = self._require_point("state")
+        return np.concatenate(point.vectors).astype(np.float32)
+
+    def render(self) -> np.ndarray | None:
+        """The current frame, uint8 ``[H, W, 3]`` (see the class docstring); the agents that
+        choose now are highlighted. ``None``, with a warning, without ``render_mode``."""
+        if self.render_mode is None:
+            gym.logger.warn("render() needs OptionParallelEnv(..., render_mode='rgb_array')")
+            return None
+        point = self._require_point("render")
+        if self._composer is None:
+            env = self.env
+            title = f"{env.task.name} | {env.strategy.value}"
+            self._composer = FrameComposer.of_env(env, title)
+        overlay = Overlay(
+            tick=point.ticks,
+            ret=self._return,
+            reward=self._tick_reward,
+            options=self.env.running_option_names(),
+            started=point.choosing.tolist(),
+            state=state_lines(self.env.task.name, self.env.task.describe()),
+            vectors=point.vectors,
+        )
+        return self._composer.compose(overlay)
+
     def close(self) -> None:
+        if self._composer is not None:
+            self._composer.close()
+            self._composer = None
         self.env.close()
+
+    def _on_tick(self, env: OptionEnv, reward: float) -> None:
+        self._tick_reward = reward  # the panel's "last tick" reward
+
+    def _require_point(self, method: str) -> DecisionPoint:
+        if self._point is None:
+            raise ValueError(f"{method}() called before reset()")
+        return self._point
 
     def _joint(self, point: DecisionPoint, actions: dict[str, Any]) -> np.ndarray:
         """The joint option of ``actions`` (the rules are in the module docstring)."""
@@ -126,6 +205,59 @@ class OptionParallelEnv(ParallelEnv):
                 "running": int(point.running[i]),
                 "duration": point.duration,
                 "ticks": point.ticks,
+                "discounted_reward": float(point.discounted_reward),
             }
             for i, agent in enumerate(self.possible_agents)
         }
+
+
+def parallel_env(
+    task: str = "tool_delivery",
+    strategy: str = "continue",
+    *,
+    render_mode: str | None = None,
+    **kwargs: Any,
+) -> OptionParallelEnv:
+    """A task's PettingZoo view, as a PettingZoo environment module's ``parallel_env`` makes
+    one; ``kwargs`` are :func:`maopg.env.make_env`'s (``seed``, ``images``, ``image_size``,
+    ``gamma``, ``overrides``)."""
+    return OptionParallelEnv(make_env(task, strategy, **kwargs), render_mode=render_mode)
+
+
+def decision_point(
+    agents: Sequence[str],
+    observations: Mapping[str, Mapping[str, np.ndarray]],
+    infos: Mapping[str, Mapping[str, Any]],
+) -> DecisionPoint:
+    """The :class:`DecisionPoint` behind a view's ``observations`` and ``infos`` (of
+    :meth:`OptionParallelEnv.reset` or ``step``), its arrays in ``agents`` order.
+
+    A continuing agent's availability is its mask (only its running option), which is all a
+    policy reads of it: its option is fixed. Rewards are not part of an observation and are
+    left at 0; ``duration``, ``ticks`` and the discounted reward come from the infos, so a
+    recurrent policy sees the episode start (``ticks == 0``) where it restarts its memory.
+    """
+    missing = [a for a in agents if a not in observations or a not in infos]
+    if missing:
+        raise ValueError(f"observations and infos lack agent(s) {missing}; need {list(agents)}")
+    for agent in agents:
+        absent = [key for key in INFO_KEYS if key not in infos[agent]]
+        if absent:
+            raise ValueError(
+                f"infos[{agent!r}] lacks {absent}: pass the infos of OptionParallelEnv's "
+                "reset() or step() that came with these observations"
+            )
+    first = infos[agents[0]]
+    images = None
+    if "image" in observations[agents[0]]:
+        images = np.stack([observations[a]["image"] for a in agents])
+    return DecisionPoint(
+        vectors=tuple(np.asarray(observations[a]["observation"], np.float32) for a in agents),
+        images=images,
+        choosing=np.array([infos[a]["choosing"] for a in agents], dtype=bool),
+        running=np.array([infos[a]["running"] for a in agents], dtype=np.int64),
+        available=tuple(np.asarray(observations[a]["action_mask"], bool) for a in agents),
+        discounted_reward=float(first["discounted_reward"]),
+        duration=int(first["duration"]),
+        ticks=int(first["ticks"]),
+    )

@@ -224,6 +224,19 @@ class FrameComposer:
         self._font = ImageFont.load_default(size=18)
         self._small = ImageFont.load_default(size=15)
 
+    @classmethod
+    def of_env(cls, env: OptionEnv, title: str, camera_px: int | None = None) -> FrameComposer:
+        """The composer of ``env``'s frames: its task, agents, observation layouts and tick
+        limit (a rollout video and the PettingZoo view's ``render()`` draw the same frame)."""
+        return cls(
+            env.task,
+            env.spec.agent_names,
+            layouts=[agent.layout for agent in env.spec.agents],
+            title=title,
+            max_ticks=env.spec.max_ticks,
+            camera_px=camera_px,
+        )
+
     @property
     def shape(self) -> tuple[int, int, int]:
         return (self.height, self.width, 3)
@@ -363,16 +376,9 @@ def record_episode(
     import imageio.v2 as imageio
 
     task = env.task
-    names = env.spec.agent_names
-    n = len(names)
-    composer = FrameComposer(
-        task,
-        names,
-        layouts=[agent.layout for agent in env.spec.agents],
-        title=f"{task.name} | {env.strategy.value} | seed {seed}",
-        max_ticks=env.spec.max_ticks,
-        camera_px=camera_px,
-    )
+    n = env.num_agents
+    title = f"{task.name} | {env.strategy.value} | seed {seed}"
+    composer = FrameComposer.of_env(env, title, camera_px)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     options = ["-"] * n

@@ -14,7 +14,7 @@ from pathlib import Path
 
 from torch import nn
 
-from maopg.env import OptionEnv
+from maopg.env import EnvSpec, OptionEnv
 from maopg.experiment.config import TrainConfig
 from maopg.experiment.methods import Method, get_method
 from maopg.experiment.run_dir import CHECKPOINT, FINAL
@@ -34,6 +34,8 @@ class Trained:
     method: Method
     policy: nn.Module
     samples: int
+    spec: EnvSpec
+    """The spec of the environment it was trained on (agents, options, observation sizes)."""
 
     def make_env(self, seed: int = 0) -> OptionEnv:
         """The environment the policy was trained on (task, strategy, observations)."""
@@ -86,4 +88,4 @@ def load_trained(path: str | Path, device: str = "cpu") -> Trained:
     with fitting(file):
         policy.load_state_dict(state[key])
     policy.to(config.device)
-    return Trained(file, config, method, policy, int(state.get("samples", 0)))
+    return Trained(file, config, method, policy, int(state.get("samples", 0)), spec)

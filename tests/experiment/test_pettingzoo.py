@@ -1,7 +1,8 @@
 """An existing PettingZoo environment as a task (:mod:`maopg.tasks.pettingzoo_task`): the option
 contract, asynchronous decisions from an environment's "busy" infos, the PettingZoo API round
-trip, and learning — ``async`` and ``partial`` on MPE's Simple Spread (``mpe2``, a package this
-project did not write) beat its random policy."""
+trip, the inference recipe (``load_policy`` on decision points and on the view's dicts, for a
+feed-forward and a recurrent policy), and learning — ``async`` and ``partial`` on MPE's Simple
+Spread (``mpe2``, a package this project did not write) beat its random policy."""
 
 from __future__ import annotations
 
@@ -18,6 +19,7 @@ from maopg.env import make_env
 from maopg.env.pettingzoo import OptionParallelEnv
 from maopg.env.rollout import RandomPolicy, run_episode
 from maopg.env.video import record_episode
+from maopg.experiment import load_policy
 from maopg.experiment.evaluate import evaluate
 from maopg.experiment.loading import load_trained
 from maopg.experiment.train_cli import main as train_main
@@ -207,3 +209,68 @@ def test_methods_learn_past_the_random_policy_on_simple_spread(tasks, tmp_path, 
     late, random = float(np.mean(returns[-5:])), _random_return(200)
     print(f"{method}: last 5 iterations {late:.2f} vs random {random:.2f}")
     assert late > random + 3.0
+
+
+def _memory(actor) -> list[float] | None:
+    """A recurrent actor's state after its last call (``None``: feed-forward)."""
+    return None if actor.state is None else actor.state.flatten().tolist()
+
+
+def _actions_of(actor, act, env, seeds):
+    """``(joint option, memory)`` at every decision point of one episode per seed of ``env``
+    (an OptionEnv), chosen by ``act`` (``actor`` or a call that uses it)."""
+    chosen = []
+    for seed in seeds:
+        point = env.reset(seed=seed)
+        while not point.done:
+            joint = act(point)
+            chosen.append((joint.tolist(), _memory(actor)))
+            point = env.step(joint)
+    return chosen
+
+
+def _dict_actions_of(policy, view, seeds):
+    """The same through the PettingZoo view and ``Policy.act_dict``."""
+    chosen = []
+    for seed in seeds:
+        observations, infos = view.reset(seed=seed)
+        while view.agents:
+            actions = policy.act_dict(observations, infos)
+            chosen.append(([actions[a] for a in view.possible_agents], _memory(policy.actor)))
+            observations, _, _, _, infos = view.step(actions)
+    return chosen
+
+
+@pytest.mark.parametrize(
+    ("task", "method"), [("spread", "async"), ("couriers", "partial-rnn")], ids=["ff", "rnn"]
+)
+def test_load_policy_acts_as_the_trained_actor_on_points_and_on_pettingzoo_dicts(
+    tasks, tmp_path, task, method
+):
+    """Sampled (seeded) actions over two episodes in a row: the loaded policy on decision points
+    and on the view's dicts chooses exactly what ``Trained.actor`` chooses, and the GRU policy's
+    memory is the actor's at every point — so it restarts at the second episode's reset point
+    on both paths."""
+    run = tmp_path / "run"
+    args = ["--task", task, "--method", method, "--total-samples", "50", "batch_ticks=50"]
+    args += ["ppo.epochs=1", "video=false", "plot=false", "progress=false", "eval_episodes=0"]
+    assert train_main([*args, "--run-dir", str(run)]) == 0
+    trained = load_trained(run)
+    assert trained.policy.recurrent == (method == "partial-rnn")
+    seeds = (0, 1)
+    env = trained.make_env(0)
+    try:
+        actor = trained.actor(greedy=False, seed=4)
+        expected = _actions_of(actor, actor, env, seeds)
+        policy = load_policy(run, greedy=False, seed=4)
+        on_points = _actions_of(policy.actor, policy.act, env, seeds)
+    finally:
+        env.close()
+    policy = load_policy(run, greedy=False, seed=4)
+    view = policy.parallel_env(0)
+    try:
+        on_dicts = _dict_actions_of(policy, view, seeds)
+    finally:
+        view.close()
+    assert len(expected) > 4 and on_points == expected and on_dicts == expected
+    assert len({tuple(a) for a, _ in expected}) > 1  # sampled, not one constant choice
