@@ -408,8 +408,15 @@ def after_training(run_dir: Path) -> None:
                         f"eval_options_{kind}/{agent}/{option}", count / total, trained.samples
                     )
         if config.video:
-            actor = trained.actor(greedy=not config.video_sample)
-            video = record_episode(env, actor, run_dir / VIDEO, seed=0)
+            greedy = not config.video_sample
+            video = record_episode(
+                env,
+                trained.actor(greedy=greedy),
+                run_dir / VIDEO,
+                seed=0,
+                policy_label=trained.label(greedy=greedy),
+                progress=config.progress,
+            )
             if video.cut:
                 _note(f"{video.path} stops at tick {video.ticks}; the episode went on")
             add_video(tb, "rollout", video.path, trained.samples)
