@@ -3,10 +3,12 @@
 One frame per **tick** (low-level step), composed as::
 
     +----------------------------+-----------------+
-    |  overview camera (480x640) |  tick, return,  |
-    |                            |  last reward,   |
+    |  overview camera (480x640) |  title (3 lines)|
+    |  robots and landmarks      |  tick, return,  |
+    |  labelled where they stand |  last reward,   |
     |                            |  task state,    |
     |                            |  observations   |
+    |                            |  legend         |
     +---------+---------+--------+-----------------+
     | robot 0: option | robot 1: option | ...      |   <- caption: agent and current option
     | camera (upscaled observation)  ...           |
@@ -23,7 +25,13 @@ every task gets a video.
 
 The robots' tiles show each camera at the observation resolution (``task.config.image_size``)
 upscaled with nearest-neighbour, i.e. exactly the pixels an image-based policy sees; a caption
-turns yellow on the tick an agent starts a new option. The panel's task state comes from the
+turns yellow on the tick an agent starts a new option, which the legend at the panel's bottom
+says. The title (:func:`video_title`) names the task, the strategy, who acts (a trained policy's
+method and *training* seed, greedy or sampled; a reference policy's name) and, on a line of its
+own, the *episode* seed. The overview labels what the task's
+:meth:`~maopg.tasks.base.SceneTask.labels` lists (the robots; Water Filling's jars too) at its
+projection (:func:`maopg.sim.render.project_points`), in small text on a dark box that stays
+inside the picture. The panel's task state comes from the
 task's registered ``state_lines`` (:func:`~maopg.tasks.text.generic_state_lines` otherwise); under
 it, each agent's observation at the last decision point, by the fields of its named layout.
 
