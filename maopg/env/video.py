@@ -29,10 +29,10 @@ turns yellow on the tick an agent starts a new option, which the legend at the p
 says. The title (:func:`video_title`) names the task, the strategy, who acts (a trained policy's
 method and *training* seed, greedy or sampled; a reference policy's name) and, on a line of its
 own, the *episode* seed. The overview labels what the task's
-:meth:`~maopg.tasks.base.SceneTask.labels` lists (the robots; Water Filling's jars too) at its
-projection (:func:`maopg.sim.render.project_points`), in small text on a dark box that stays
-inside the picture. The panel's task state comes from the
-task's registered ``state_lines`` (:func:`~maopg.tasks.text.generic_state_lines` otherwise); under
+:meth:`~maopg.tasks.base.SceneTask.labels` lists (the robots; Water Filling's jars and Tool
+Delivery's humans too) at its projection (:func:`maopg.sim.render.project_points`), in small
+text on a dark box that stays inside the picture. The panel's task state comes from the task's
+registered ``state_lines`` (:func:`~maopg.tasks.text.generic_state_lines` otherwise); under
 it, each agent's observation at the last decision point, by the fields of its named layout.
 
 The option environment only returns at decision points, so per-tick frames come from its tick
