@@ -328,13 +328,14 @@ class FrameComposer:
             if any(_overlaps((x, y, x + w, y + h), box) for box in taken) and below + h <= oh:
                 y = below
             y = min(max(y, 0), oh - h)
-            box = (x, y, x + w, y + h)
+            box = (x, y, x + w - 1, y + h - 1)  # PIL includes both corners
             taken.append(box)
             draw.rectangle(box, fill=LABEL_BOX)
             draw.text(
                 (x + LABEL_PAD - left, y + LABEL_PAD - top), text, fill=TEXT, font=self._label_font
             )
-            draw.ellipse((px - 2, py - 2, px + 2, py + 2), fill=TEXT, outline=LABEL_BOX)
+            dx, dy = min(max(px, 2), ow - 3), min(max(py, 2), oh - 3)  # the dot stays inside
+            draw.ellipse((dx - 2, dy - 2, dx + 2, dy + 2), fill=TEXT, outline=LABEL_BOX)
 
     def _draw_legend(self, draw: ImageDraw.ImageDraw) -> None:
         """What the caption colours mean, at the bottom of the panel (:data:`LEGEND`)."""

@@ -388,3 +388,33 @@ def test_progress_bar_over_the_ticks_on_stderr(tmp_path, capsys):
         assert capsys.readouterr().err == ""
     finally:
         env.close()
+
+
+def test_labels_at_the_picture_edges_stay_inside_and_points_behind_are_skipped(monkeypatch):
+    env = _short_env()
+    try:
+        env.reset(seed=0)
+        data, model = env.task.scene.data, env.task.scene.model
+        cam = model.camera("overview").id
+        eye, axes = data.cam_xpos[cam], data.cam_xmat[cam].reshape(3, 3)
+        height, width = OVERVIEW_SIZE
+        focal = 0.5 * height / np.tan(np.radians(model.cam_fovy[cam]) / 2)
+
+        def at(u, v):  # the world point 5 m deep that the overview shows at pixel (u, v)
+            ray = (u - width / 2) / focal * axes[:, 0] - (v - height / 2) / focal * axes[:, 1]
+            return eye + 5.0 * (ray - axes[:, 2])
+
+        corners = [("corner", at(u, v)) for u in (0.5, width - 0.5) for v in (0.5, height - 0.5)]
+        behind = [("behind", eye + axes[:, 2])]
+        frames = {}
+        for name, labels in (("none", []), ("corners", corners), ("behind", behind)):
+            monkeypatch.setattr(type(env.task), "labels", lambda self, labels=labels: labels)
+            frames[name] = _compose(env)
+    finally:
+        env.close()
+    changed = np.any(frames["corners"] != frames["none"], axis=-1)
+    inside = changed[:height, :width]
+    assert changed.sum() == inside.sum() > 4 * 100, "drawn, and only inside the overview"
+    for rows, cols in ((slice(0, 40), slice(0, 80)), (slice(-40, None), slice(-80, None))):
+        assert inside[rows, cols].any(), "each corner's label is kept in the picture"
+    assert np.array_equal(frames["behind"], frames["none"])
