@@ -46,8 +46,8 @@ class Trained:
 
     def label(self, *, greedy: bool = True) -> str:
         """Who acts, for a video's title: the method, its training seed and how it acts
-        (``async seed 2 (sampled)``)."""
-        mode = "greedy" if greedy else "sampled"
+        (``async seed 2 (sampled)``, ``mac-dqn seed 0 (ε-greedy)``)."""
+        mode = "greedy" if greedy else self.method.learner.sampled_name
         return f"{self.config.method} seed {self.config.seed} ({mode})"
 
 

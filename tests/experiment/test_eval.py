@@ -291,6 +291,8 @@ def test_evaluate_a_mac_dqn_checkpoint_made_by_the_grid(tmp_path, capsys):
     assert first.returns == again.returns and first.lengths == again.lengths
     assert all(0 < n <= 40 for n in first.lengths + explore.lengths)
     assert trained.actor(greedy=False).epsilon == trained.config.learner.eps_end
+    assert trained.label(greedy=False) == "mac-dqn seed 0 (ε-greedy)"  # a video's title
+    assert trained.label() == "mac-dqn seed 0 (greedy)"
 
     main(["evaluate", "--checkpoint", str(run_dir), "--episodes", "2", "--sample"])
     assert "| mac-dqn seed0 @" in capsys.readouterr().out
