@@ -3,10 +3,12 @@
 One frame per **tick** (low-level step), composed as::
 
     +----------------------------+-----------------+
-    |  overview camera (480x640) |  tick, return,  |
-    |                            |  last reward,   |
+    |  overview camera (480x640) |  title (3 lines)|
+    |  robots and landmarks      |  tick, return,  |
+    |  labelled where they stand |  last reward,   |
     |                            |  task state,    |
     |                            |  observations   |
+    |                            |  legend         |
     +---------+---------+--------+-----------------+
     | robot 0: option | robot 1: option | ...      |   <- caption: agent and current option
     | camera (upscaled observation)  ...           |
@@ -23,8 +25,14 @@ every task gets a video.
 
 The robots' tiles show each camera at the observation resolution (``task.config.image_size``)
 upscaled with nearest-neighbour, i.e. exactly the pixels an image-based policy sees; a caption
-turns yellow on the tick an agent starts a new option. The panel's task state comes from the
-task's registered ``state_lines`` (:func:`~maopg.tasks.text.generic_state_lines` otherwise); under
+turns yellow on the tick an agent starts a new option, which the legend at the panel's bottom
+says. The title (:func:`video_title`) names the task, the strategy, who acts (a trained policy's
+method and *training* seed, greedy or sampled; a reference policy's name) and, on a line of its
+own, the *episode* seed. The overview labels what the task's
+:meth:`~maopg.tasks.base.SceneTask.labels` lists (the robots; Water Filling's jars and Tool
+Delivery's humans too) at its projection (:func:`maopg.sim.render.project_points`), in small
+text on a dark box that stays inside the picture. The panel's task state comes from the task's
+registered ``state_lines`` (:func:`~maopg.tasks.text.generic_state_lines` otherwise); under
 it, each agent's observation at the last decision point, by the fields of its named layout.
 
 The option environment only returns at decision points, so per-tick frames come from its tick
@@ -48,7 +56,7 @@ from PIL import Image, ImageDraw, ImageFont
 import maopg  # noqa: F401  (sets MUJOCO_GL=egl before mujoco is imported)
 from maopg.env import DecisionPoint, OptionEnv
 from maopg.env.rollout import ReferencePolicy
-from maopg.sim.render import CameraRenderer, VideoRenderer
+from maopg.sim.render import CameraRenderer, VideoRenderer, project_points
 from maopg.tasks import ObsLayout, SceneTask, Task, task_entry, task_names
 from maopg.tasks.text import generic_state_lines
 
@@ -78,6 +86,18 @@ BACKGROUND = (24, 24, 28)
 TEXT = (235, 235, 235)
 DIM = (150, 150, 160)
 HIGHLIGHT = (255, 214, 64)
+
+LABEL_FONT = 13
+"""Pixel size of the overview's labels: small, so that 8+ robots and 8+ jars stay apart."""
+LABEL_PAD = 2
+LABEL_LIFT = 6
+"""Pixels between a labelled point and its label's box."""
+LABEL_BOX = (12, 12, 16)
+"""The labels' background: dark, so the text reads on any floor."""
+LEGEND = ((HIGHLIGHT, "caption: chose its option this tick"), (TEXT, "caption: option running"))
+"""The caption colours, explained at the bottom of the panel."""
+LEGEND_TOP = OVERVIEW_SIZE[0] - 12 - 21 * len(LEGEND)
+"""Where the legend starts; the panel's text stops above it."""
 
 
 # ----------------------------------------------------------------------------- task state text
@@ -199,15 +219,19 @@ class FrameComposer:
         agent_names: Sequence[str],
         *,
         layouts: Sequence[ObsLayout | None] | None = None,
-        title: str = "",
+        title: str | Sequence[str] = "",
         max_ticks: int | None = None,
         camera_px: int | None = None,
+        labels: bool = True,
     ) -> None:
         self.task = task
         self.agent_names = tuple(agent_names)
         self.layouts = tuple(layouts) if layouts is not None else (None,) * len(self.agent_names)
-        self.title = title
+        self.title = (title,) if isinstance(title, str) else tuple(title)
+        """The title's lines, each cut to the panel's width (:func:`video_title`)."""
         self.max_ticks = max_ticks
+        self.labels = labels and isinstance(task, SceneTask)
+        """Whether the overview gets the task's :meth:`~maopg.tasks.base.SceneTask.labels`."""
         self.scene = isinstance(task, SceneTask)
         n = len(self.agent_names)
         oh, ow = OVERVIEW_SIZE
@@ -223,9 +247,12 @@ class FrameComposer:
             self._data = task.scene.data
         self._font = ImageFont.load_default(size=18)
         self._small = ImageFont.load_default(size=15)
+        self._label_font = ImageFont.load_default(size=LABEL_FONT)
 
     @classmethod
-    def of_env(cls, env: OptionEnv, title: str, camera_px: int | None = None) -> FrameComposer:
+    def of_env(
+        cls, env: OptionEnv, title: str | Sequence[str], camera_px: int | None = None
+    ) -> FrameComposer:
         """The composer of ``env``'s frames: its task, agents, observation layouts and tick
         limit (a rollout video and the PettingZoo view's ``render()`` draw the same frame)."""
         return cls(
@@ -260,7 +287,10 @@ class FrameComposer:
         if picture is not None:
             canvas.paste(picture, (0, 0))
         draw = ImageDraw.Draw(canvas)
+        if self.labels:
+            self._draw_labels(draw)
         self._draw_panel(draw, overlay)
+        self._draw_legend(draw)
         if self.scene:
             self._cameras.render(self._data, self._camera_ids, out=self._camera_buf)
 
@@ -270,7 +300,7 @@ class FrameComposer:
             colour = HIGHLIGHT if overlay.started[i] else TEXT
             if grid.two_lines:
                 for k, text in enumerate((name, str(overlay.options[i]))):
-                    text = self._fit(draw, text, grid.side - 4)
+                    text = self._fit(draw, text, grid.side - 4, self._small)
                     draw.text((x + 2, y + 2 + 20 * k), text, fill=colour, font=self._small)
             else:
                 caption = f"{name}: {overlay.options[i]}"
@@ -281,18 +311,64 @@ class FrameComposer:
                 canvas.paste(tile, (x, y + grid.caption))
         return np.asarray(canvas)
 
-    def _fit(self, draw: ImageDraw.ImageDraw, text: str, width: int) -> str:
-        """``text``, cut with an ellipsis to ``width`` pixels in the caption font."""
-        if draw.textlength(text, font=self._small) <= width:
+    @staticmethod
+    def _fit(draw: ImageDraw.ImageDraw, text: str, width: int, font: ImageFont.ImageFont) -> str:
+        """``text``, cut with an ellipsis to ``width`` pixels in ``font``."""
+        if draw.textlength(text, font=font) <= width:
             return text
-        while text and draw.textlength(f"{text}…", font=self._small) > width:
+        while text and draw.textlength(f"{text}…", font=font) > width:
             text = text[:-1]
         return f"{text}…"
 
+    def _draw_labels(self, draw: ImageDraw.ImageDraw) -> None:
+        """The task's labels at their projections on the overview: a dot on the point and the
+        text in a dark box just above it (below it where that box would cover an earlier
+        label), kept inside the overview; a point outside the picture is not labelled."""
+        labels = self.task.labels()  # type: ignore[attr-defined]  (self.labels: a scene task)
+        if not labels:
+            return
+        oh, ow = OVERVIEW_SIZE
+        model, data = self.task.scene.model, self._data  # type: ignore[attr-defined]
+        points = np.array([xyz for _, xyz in labels], dtype=np.float64)
+        pixels = project_points(model, data, self._overview.camera, points, oh, ow)
+        taken: list[tuple[int, int, int, int]] = []
+        for (text, _), (px, py) in zip(labels, pixels, strict=True):
+            if not (0 <= px < ow and 0 <= py < oh):  # NaN (behind the camera) fails too
+                continue
+            left, top, right, bottom = draw.textbbox((0, 0), text, font=self._label_font)
+            w, h = right - left + 2 * LABEL_PAD, bottom - top + 2 * LABEL_PAD
+            x = int(min(max(px - w / 2, 0), ow - w))
+            above, below = int(py) - LABEL_LIFT - h, int(py) + LABEL_LIFT
+            y = above if above >= 0 else below
+            if any(_overlaps((x, y, x + w, y + h), box) for box in taken) and below + h <= oh:
+                y = below
+            y = min(max(y, 0), oh - h)
+            box = (x, y, x + w - 1, y + h - 1)  # PIL includes both corners
+            taken.append(box)
+            draw.rectangle(box, fill=LABEL_BOX)
+            draw.text(
+                (x + LABEL_PAD - left, y + LABEL_PAD - top), text, fill=TEXT, font=self._label_font
+            )
+            dx, dy = min(max(px, 2), ow - 3), min(max(py, 2), oh - 3)  # the dot stays inside
+            draw.ellipse((dx - 2, dy - 2, dx + 2, dy + 2), fill=TEXT, outline=LABEL_BOX)
+
+    def _draw_legend(self, draw: ImageDraw.ImageDraw) -> None:
+        """What the caption colours mean, at the bottom of the panel (:data:`LEGEND`)."""
+        x, y = OVERVIEW_SIZE[1] + 12, LEGEND_TOP
+        for colour, text in LEGEND:
+            draw.rectangle((x, y + 4, x + 10, y + 14), fill=colour)
+            draw.text((x + 16, y), text, fill=colour, font=self._small)
+            y += 21
+
     def _draw_panel(self, draw: ImageDraw.ImageDraw, overlay: Overlay) -> None:
         x, y = OVERVIEW_SIZE[1] + 12, 12
+        width = PANEL_WIDTH - 24
+        for line in self.title:
+            draw.text((x, y), self._fit(draw, line, width, self._small), fill=DIM, font=self._small)
+            y += 21
+        y += 4
         limit = f" / {self.max_ticks}" if self.max_ticks else ""
-        head = [(self.title, DIM), (f"tick {overlay.tick}{limit}", TEXT)]
+        head = [(f"tick {overlay.tick}{limit}", TEXT)]
         head.append((f"return {overlay.ret:+.1f}", TEXT))
         last = "-" if overlay.reward is None else f"{overlay.reward:+.1f}"
         head.append((f"reward {last} (last tick)", TEXT))
@@ -303,20 +379,20 @@ class FrameComposer:
             y += 26
         y += 8
         for line in overlay.state:
-            if y > OVERVIEW_SIZE[0] - 21:
+            if y > LEGEND_TOP - 21:
                 return  # the panel is full (a task with very many state lines)
             draw.text((x, y), line, fill=TEXT, font=self._small)
             y += 21
         y += 8
 
         def fits(text: str) -> bool:
-            return draw.textlength(text, font=self._small) <= PANEL_WIDTH - 24
+            return draw.textlength(text, font=self._small) <= width
 
         for name, layout, vector in zip(
             self.agent_names, self.layouts, overlay.vectors, strict=False
         ):
             for line in observation_lines(name, layout, vector, fits):
-                if y > OVERVIEW_SIZE[0] - 21:
+                if y > LEGEND_TOP - 21:
                     return  # the panel is full
                 draw.text((x, y), line, fill=DIM, font=self._small)
                 y += 21
@@ -327,11 +403,24 @@ class FrameComposer:
             self._cameras.close()
 
 
+def _overlaps(a: tuple[int, int, int, int], b: tuple[int, int, int, int]) -> bool:
+    return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
+
+
 def _round_up(value: int, block: int) -> int:
     return -(-value // block) * block
 
 
 # ----------------------------------------------------------------------------- recording
+def video_title(task: str, strategy: str, policy_label: str, seed: int) -> list[str]:
+    """The title's lines: what runs, who acts (the policy and its *training* seed, when it has
+    one) and the *episode* seed, each on its own line so neither seed is read for the other."""
+    lines = [f"{task} | {strategy}"]
+    if policy_label:
+        lines.append(policy_label)
+    return [*lines, f"episode seed {seed}"]
+
+
 @dataclass
 class RecordedEpisode:
     """What :func:`record_episode` wrote."""
@@ -360,6 +449,8 @@ def record_episode(
     fps: int = 4,
     camera_px: int | None = None,
     max_ticks: int | None = None,
+    policy_label: str = "",
+    progress: bool = False,
 ) -> RecordedEpisode:
     """Play one episode of ``env``'s task with ``policy`` and write it to ``path`` (MP4).
 
@@ -372,12 +463,18 @@ def record_episode(
     there, in the middle of an option if need be, so a video's length is bounded whatever the
     task's settings; the last frame says so. ``env`` is then left mid-episode (reset it before
     stepping it again).
+
+    The title names the task, the strategy, ``policy_label`` (who acts: ``async seed 2
+    (sampled)``, ``scripted``; :meth:`maopg.experiment.loading.Trained.label`) and the episode's
+    ``seed`` (:func:`video_title`). ``progress`` shows a bar over the ticks on stderr; its total
+    is the bounded length, and it stops early when the episode ends first.
     """
     import imageio.v2 as imageio
+    from tqdm import tqdm
 
     task = env.task
     n = env.num_agents
-    title = f"{task.name} | {env.strategy.value} | seed {seed}"
+    title = video_title(task.name, env.strategy.value, policy_label, seed)
     composer = FrameComposer.of_env(env, title, camera_px)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -388,6 +485,13 @@ def record_episode(
     writer = imageio.get_writer(path, fps=fps, codec="libx264", macro_block_size=BLOCK)
     frames = [0]
     limit = VIDEO_MAX_TICKS if max_ticks is None else max_ticks
+    bar = tqdm(
+        total=min(limit, env.spec.max_ticks),
+        desc=f"video {path.name}",
+        unit="tick",
+        disable=not progress,
+        leave=False,
+    )
 
     def write(tick: int, reward: float | None, note: str = "") -> None:
         overlay = Overlay(
@@ -411,6 +515,7 @@ def record_episode(
         ends = task.terminated() or task.truncated() or ticks >= env.spec.max_ticks
         cut = ticks >= limit and not ends
         write(ticks, reward, "video cut (episode goes on)" if cut else "")
+        bar.update()
         started[:] = False
         if cut:
             raise _Cut
@@ -429,6 +534,7 @@ def record_episode(
         return RecordedEpisode(path, frames[0], composer.shape, total[0], limit, False, cut=True)
     finally:
         env.remove_tick_listener(on_tick)
+        bar.close()
         writer.close()
         composer.close()
     episode = point.info["episode"]

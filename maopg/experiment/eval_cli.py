@@ -126,7 +126,9 @@ def _task_settings(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def _policy_and_env(args: argparse.Namespace):
-    """``(label, env, policy)`` for a checkpoint or a reference policy."""
+    """``(label, who, env, policy)`` for a checkpoint or a reference policy: ``label`` names
+    it in a results table, ``who`` in a video's title (the training seed and greedy/sampled of
+    a checkpoint's policy, the name of a reference one)."""
     from maopg.env import make_env
     from maopg.env.rollout import reference_policy
 
@@ -146,10 +148,10 @@ def _policy_and_env(args: argparse.Namespace):
         policy = trained.actor(greedy=not args.sample, seed=args.seed)
         c = trained.config
         label = f"{c.method} seed{c.seed} @ {trained.samples} samples"
-        return label, env, policy
+        return label, trained.label(greedy=not args.sample), env, policy
     task = args.task or "tool_delivery"
     env = make_env(task, args.strategy or "continue", seed=args.seed, overrides=settings)
-    return args.reference, env, reference_policy(args.reference, env, args.seed)
+    return args.reference, args.reference, env, reference_policy(args.reference, env, args.seed)
 
 
 def _thresholds(items: list[str]) -> dict[str, float]:
@@ -170,7 +172,7 @@ def _thresholds(items: list[str]) -> dict[str, float]:
 def cmd_evaluate(args: argparse.Namespace) -> int:
     from maopg.experiment.evaluate import choices_lines, evaluate, results_table, write_result
 
-    label, env, policy = _policy_and_env(args)
+    label, _, env, policy = _policy_and_env(args)
     try:
         result = evaluate(env, policy, args.episodes, seed=args.seed, label=label)
     finally:
@@ -185,9 +187,17 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
 def cmd_video(args: argparse.Namespace) -> int:
     from maopg.env.video import record_episode
 
-    _, env, policy = _policy_and_env(args)
+    _, who, env, policy = _policy_and_env(args)
     try:
-        video = record_episode(env, policy, args.out, seed=args.seed, fps=args.fps)
+        video = record_episode(
+            env,
+            policy,
+            args.out,
+            seed=args.seed,
+            fps=args.fps,
+            policy_label=who,
+            progress=not args.no_progress,
+        )
     finally:
         env.close()
     cut = f" (cut at {video.ticks} ticks, the episode went on)" if video.cut else ""
@@ -299,6 +309,9 @@ def build_parser() -> argparse.ArgumentParser:
     _policy_args(p)
     p.add_argument("--out", type=Path, required=True)
     p.add_argument("--fps", type=at_least(1), default=4)
+    p.add_argument(
+        "--no-progress", action="store_true", help="no progress bar over the ticks (stderr)"
+    )
     p.set_defaults(func=cmd_video)
 
     for name, func, text in (

@@ -46,6 +46,12 @@ class Trained:
         sample seeded with ``seed`` — for Mac-DQN, ε-greedy at its final exploration rate."""
         return self.method.learner.actor(self.policy, self.config.learner, greedy=greedy, seed=seed)
 
+    def label(self, *, greedy: bool = True) -> str:
+        """Who acts, for a video's title: the method, its training seed and how it acts
+        (``async seed 2 (sampled)``, ``mac-dqn seed 0 (ε-greedy)``)."""
+        mode = "greedy" if greedy else self.method.learner.sampled_name
+        return f"{self.config.method} seed {self.config.seed} ({mode})"
+
 
 def resolve_checkpoint(path: str | Path) -> Path:
     """``path`` itself if it is a file, else the first of :data:`CHECKPOINT_NAMES` in it."""

@@ -362,6 +362,22 @@ def train(config: TrainConfig, *, resume: bool = False, overwrite: bool = False)
     return run_dir
 
 
+def after_training_plan(config: TrainConfig) -> str:
+    """The line that says what follows training and how big each step is, so the time after
+    the training bar (about 30 s for Tool Delivery's defaults on 2 cores, README "Progress")
+    is announced rather than silent; empty when nothing follows. An ETA for these steps is
+    not guessed before any of them ran: each step's own bar gives one from its measured rate.
+    """
+    steps = []
+    if config.eval_episodes:
+        steps.append(f"evaluation of 2 x {config.eval_episodes} episodes (greedy, sampled)")
+    if config.plot:
+        steps.append("the learning-curve plot")
+    if config.video:
+        steps.append("a rollout video of one episode and its TensorBoard GIF")
+    return f"after training: {', '.join(steps)}" if steps else ""
+
+
 EVAL_TAGS = ("eval/return_greedy", "eval/return_sampled")
 """The final policy's evaluation in TensorBoard, also the metrics of its HPARAMS tab."""
 
@@ -376,10 +392,16 @@ def after_training(run_dir: Path) -> None:
     The policy is loaded back from ``final.pt`` the way ``python -m eval`` loads it, so what is
     reported is what the saved checkpoint does. The video's length is bounded
     (:data:`maopg.env.video.VIDEO_MAX_TICKS`) whatever the task's ``max_ticks``.
+
+    With ``progress``, one line first names the steps to come (:func:`after_training_plan`),
+    and the evaluation, the video and its TensorBoard GIF each show a bar with its own ETA.
     """
     from torch.utils.tensorboard import SummaryWriter
 
     config = TrainConfig.load(run_dir / CONFIG)
+    plan = after_training_plan(config)
+    if config.progress and plan:
+        _note(plan)
     if config.plot:
         title = f"{config.task} · {config.method} · seed {config.seed}"
         plot_learning_curve(run_dir / METRICS, run_dir / CURVE, title)
@@ -408,11 +430,18 @@ def after_training(run_dir: Path) -> None:
                         f"eval_options_{kind}/{agent}/{option}", count / total, trained.samples
                     )
         if config.video:
-            actor = trained.actor(greedy=not config.video_sample)
-            video = record_episode(env, actor, run_dir / VIDEO, seed=0)
+            greedy = not config.video_sample
+            video = record_episode(
+                env,
+                trained.actor(greedy=greedy),
+                run_dir / VIDEO,
+                seed=0,
+                policy_label=trained.label(greedy=greedy),
+                progress=config.progress,
+            )
             if video.cut:
                 _note(f"{video.path} stops at tick {video.ticks}; the episode went on")
-            add_video(tb, "rollout", video.path, trained.samples)
+            add_video(tb, "rollout", video.path, trained.samples, progress=config.progress)
     finally:
         tb.close()
         env.close()

@@ -101,6 +101,8 @@ class Learner(ABC):
     """Its own ``metrics.csv`` columns, logged after :data:`SHARED_COLUMNS`."""
     policy_key: ClassVar[str]
     """The ``final.pt`` entry holding the acting network's weights."""
+    sampled_name: ClassVar[str] = "sampled"
+    """How its non-greedy :meth:`actor` acts, in a video's title (Mac-DQN: ``ε-greedy``)."""
 
     def __init__(self, policy: nn.Module, setup: LearnerSetup) -> None:
         # Built on the CPU from torch's global RNG (the same initial weights on every device),

@@ -282,6 +282,7 @@ class MacDQNLearner(Learner):
     the exploration rate at the iteration's end, ``updates`` the number of gradient steps so
     far."""
     policy_key = "q"
+    sampled_name = "ε-greedy"
 
     def __init__(self, policy: JointQNetwork, setup: LearnerSetup) -> None:
         super().__init__(policy, setup)

@@ -149,3 +149,34 @@ class VideoRenderer(CameraRenderer):
     def frame(self, data: mujoco.MjData) -> np.ndarray:
         """One ``[H, W, 3]`` frame (a fresh copy, safe to append to a video list)."""
         return self.render(data, [self.camera], out=self._frame)[0].copy()
+
+
+def project_points(
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    camera: str | int,
+    points: np.ndarray,
+    height: int,
+    width: int,
+) -> np.ndarray:
+    """Pixel coordinates ``[N, 2]`` (x right, y down, from the top-left corner) of world
+    ``points [N, 3]`` in a ``height`` x ``width`` image of ``camera``; a point behind the camera
+    is NaN.
+
+    MuJoCo's camera conventions: ``data.cam_xmat`` holds the camera's axes in world coordinates
+    as columns, the camera looks along its ``-z`` axis with ``+y`` up, and ``model.cam_fovy`` is
+    the vertical field of view in degrees (pixels are square, so the horizontal focal length is
+    the vertical one). ``data`` must be current (``mj_forward`` or a step since the last move),
+    as for a render: this is how a video labels what its overview shows.
+    """
+    cam = camera if isinstance(camera, int) else model.camera(camera).id
+    axes = data.cam_xmat[cam].reshape(3, 3)
+    local = (np.asarray(points, dtype=np.float64).reshape(-1, 3) - data.cam_xpos[cam]) @ axes
+    depth = -local[:, 2]
+    focal = 0.5 * height / np.tan(np.radians(model.cam_fovy[cam]) / 2)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x = 0.5 * width + focal * local[:, 0] / depth
+        y = 0.5 * height - focal * local[:, 1] / depth
+    pixels = np.stack([x, y], axis=1)
+    pixels[depth <= 0] = np.nan
+    return pixels

@@ -200,6 +200,17 @@ class SceneTask(Task):
             camera = self.agent_robots[i].camera_id
             self._renderer.render(self.scene.data, [camera], out=out[i : i + 1])
 
+    def labels(self) -> list[tuple[str, np.ndarray]]:
+        """What a video labels on its overview: ``(text, world xyz)`` pairs at the current
+        state; by default every agent's name at its robot's root body. A task adds its own
+        landmarks (Water Filling: the jars' indices) by extending this list, so the video
+        knows no task by name. Only a scene task has world points to label."""
+        xpos = self.scene.data.xpos
+        return [
+            (name, xpos[robot.root_body_id].copy())
+            for name, robot in zip(self.agent_names, self.agent_robots, strict=True)
+        ]
+
     def close(self) -> None:
         if self._renderer is not None:
             self._renderer.close()

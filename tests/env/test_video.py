@@ -8,7 +8,7 @@ import imageio.v2 as imageio
 import numpy as np
 import pytest
 
-from maopg.env import make_env
+from maopg.env import make_env, video
 from maopg.env.rollout import RandomPolicy, run_episode
 from maopg.env.video import (
     BACKGROUND,
@@ -16,7 +16,10 @@ from maopg.env.video import (
     CAPTION,
     GAP,
     HIGHLIGHT,
+    LEGEND,
+    LEGEND_TOP,
     OVERVIEW_SIZE,
+    PANEL_WIDTH,
     ROW_WIDTH,
     TILE,
     FrameComposer,
@@ -26,7 +29,9 @@ from maopg.env.video import (
     record_episode,
     state_lines,
     tile_grid,
+    video_title,
 )
+from maopg.sim.render import project_points
 from maopg.tasks import ObsLayout
 
 
@@ -216,13 +221,18 @@ def test_the_panel_lists_each_agents_observation(tmp_path, monkeypatch):
     )
 
 
-def test_cli_records_the_scripted_episode(tmp_path, capsys):
+def test_cli_records_the_scripted_episode(tmp_path, capsys, monkeypatch):
     out = tmp_path / "td.mp4"
     from maopg.experiment.eval_cli import main
 
+    titles = []
+    monkeypatch.setattr(video, "video_title", lambda *a: titles.append(a) or video_title(*a))
     main(["video", "--reference", "scripted", "--task", "tool_delivery", "--out", str(out)])
-    assert "return 259.0 in 41 ticks" in capsys.readouterr().out
+    printed = capsys.readouterr()
+    assert "return 259.0 in 41 ticks" in printed.out
+    assert "video td.mp4" in printed.err and "tick" in printed.err  # the progress bar
     assert len(_read(out)) == 42
+    assert titles == [("tool_delivery", "continue", "scripted", 0)]
 
 
 def test_recording_does_not_change_the_episode(tmp_path):
@@ -275,3 +285,136 @@ def test_tile_rows_stay_within_the_frame_width():
         grid = tile_grid(agents, cameras=True)
         assert grid.row_width <= ROW_WIDTH and grid.cols * grid.rows >= agents
         assert (grid.rows == 1) == (agents <= 3) and (grid.side == TILE) == (agents <= 6)
+
+
+def _compose(env, overlay=None, **settings):
+    """One frame of ``env``'s current state (a fixed overlay unless given)."""
+    n = len(env.spec.agent_names)
+    overlay = overlay or Overlay(
+        tick=0, ret=0.0, reward=None, options=["-"] * n, started=[False] * n, state=["s"]
+    )
+    composer = FrameComposer(env.task, env.spec.agent_names, **{"title": "t", **settings})
+    try:
+        return composer.compose(overlay)
+    finally:
+        composer.close()
+
+
+def test_the_title_names_policy_and_both_seeds_and_is_drawn_only_at_the_panel_top():
+    title = video_title("tool_delivery", "continue", "async seed 2 (sampled)", 0)
+    assert title == ["tool_delivery | continue", "async seed 2 (sampled)", "episode seed 0"]
+    assert video_title("t", "any", "", 5) == ["t | any", "episode seed 5"]
+    env = _short_env()
+    try:
+        env.reset(seed=0)
+        frames = [
+            _compose(env, title=video_title("tool_delivery", "continue", who, 0))
+            for who in ("async seed 2 (sampled)", "mac-dqn seed 1 (greedy)")
+        ]
+    finally:
+        env.close()
+    area = np.zeros(frames[0].shape[:2], bool)
+    area[: 12 + 3 * 21, OVERVIEW_SIZE[1] :] = True  # the title's three lines
+    assert not np.array_equal(frames[0][area], frames[1][area])
+    assert np.array_equal(frames[0][~area], frames[1][~area])
+
+
+def test_labels_are_drawn_at_the_robots_and_jars_projections():
+    """Water Filling's overview labels each robot and jar at its projected position, and
+    nothing else changes: the panel and the camera tiles are the same without labels."""
+    env = make_env("water_filling", "continue", seed=0, overrides={"max_ticks": 6})
+    try:
+        env.reset(seed=0)
+        labelled, plain = _compose(env), _compose(env, labels=False)
+        labels = env.task.labels()
+        scene = env.task.scene
+        spots = project_points(
+            scene.model, scene.data, "overview", [xyz for _, xyz in labels], *OVERVIEW_SIZE
+        )
+    finally:
+        env.close()
+    assert [text for text, _ in labels] == ["vehicle", "drone", "jar 0", "jar 1", "jar 2"]
+    changed = np.any(labelled != plain, axis=-1)
+    assert not changed[OVERVIEW_SIZE[0] :].any() and not changed[:, OVERVIEW_SIZE[1] :].any()
+    ys, xs = np.nonzero(changed)
+    for (text, _), (x, y) in zip(labels, spots, strict=True):
+        assert 0 <= x < OVERVIEW_SIZE[1] and 0 <= y < OVERVIEW_SIZE[0], text
+        near = (np.abs(xs - x) < 40) & (np.abs(ys - y) < 30)
+        assert near.sum() > 50, f"{text} is labelled where it stands"
+    # every changed pixel belongs to some label near its point
+    close = np.zeros(len(xs), bool)
+    for x, y in spots:
+        close |= (np.abs(xs - x) < 60) & (np.abs(ys - y) < 30)
+    assert close.all()
+
+
+def test_labels_stay_inside_the_overview_for_a_big_team():
+    overrides = {"vehicles": 4, "drones": 4, "jars": 8, "max_ticks": 6}
+    env = make_env("water_filling", "continue", overrides=overrides)
+    try:
+        env.reset(seed=0)
+        labelled, plain = _compose(env), _compose(env, labels=False)
+        assert len(env.task.labels()) == 16
+    finally:
+        env.close()
+    changed = np.any(labelled != plain, axis=-1)
+    assert changed[: OVERVIEW_SIZE[0], : OVERVIEW_SIZE[1]].sum() > 16 * 100
+    assert not changed[OVERVIEW_SIZE[0] :].any() and not changed[:, OVERVIEW_SIZE[1] :].any()
+
+
+def test_the_legend_explains_the_caption_colours_at_the_panel_bottom():
+    env = _short_env()
+    try:
+        env.reset(seed=0)
+        frame = _compose(env)
+    finally:
+        env.close()
+    x0 = OVERVIEW_SIZE[1]
+    for k, (colour, text) in enumerate(LEGEND):
+        row = frame[LEGEND_TOP + 21 * k : LEGEND_TOP + 21 * (k + 1), x0 : x0 + PANEL_WIDTH]
+        assert np.all(row == colour, axis=-1).sum() > 100 + 5 * len(text), text
+    assert "chose" in LEGEND[0][1] and LEGEND[0][0] == HIGHLIGHT
+    # the legend is the panel's only highlighted text on a frame without a note
+    panel = frame[:LEGEND_TOP, x0:]
+    assert not np.all(panel == HIGHLIGHT, axis=-1).any()
+
+
+def test_progress_bar_over_the_ticks_on_stderr(tmp_path, capsys):
+    env = make_env("tool_delivery", "continue", overrides={"max_ticks": 4})
+    try:
+        record_episode(env, RandomPolicy(env.spec, 1), tmp_path / "p.mp4", seed=1, progress=True)
+        assert "/4 " in capsys.readouterr().err  # total: the episode's bound, 4 ticks
+        record_episode(env, RandomPolicy(env.spec, 1), tmp_path / "q.mp4", seed=1)
+        assert capsys.readouterr().err == ""
+    finally:
+        env.close()
+
+
+def test_labels_at_the_picture_edges_stay_inside_and_points_behind_are_skipped(monkeypatch):
+    env = _short_env()
+    try:
+        env.reset(seed=0)
+        data, model = env.task.scene.data, env.task.scene.model
+        cam = model.camera("overview").id
+        eye, axes = data.cam_xpos[cam], data.cam_xmat[cam].reshape(3, 3)
+        height, width = OVERVIEW_SIZE
+        focal = 0.5 * height / np.tan(np.radians(model.cam_fovy[cam]) / 2)
+
+        def at(u, v):  # the world point 5 m deep that the overview shows at pixel (u, v)
+            ray = (u - width / 2) / focal * axes[:, 0] - (v - height / 2) / focal * axes[:, 1]
+            return eye + 5.0 * (ray - axes[:, 2])
+
+        corners = [("corner", at(u, v)) for u in (0.5, width - 0.5) for v in (0.5, height - 0.5)]
+        behind = [("behind", eye + axes[:, 2])]
+        frames = {}
+        for name, labels in (("none", []), ("corners", corners), ("behind", behind)):
+            monkeypatch.setattr(type(env.task), "labels", lambda self, labels=labels: labels)
+            frames[name] = _compose(env)
+    finally:
+        env.close()
+    changed = np.any(frames["corners"] != frames["none"], axis=-1)
+    inside = changed[:height, :width]
+    assert changed.sum() == inside.sum() > 4 * 100, "drawn, and only inside the overview"
+    for rows, cols in ((slice(0, 40), slice(0, 80)), (slice(-40, None), slice(-80, None))):
+        assert inside[rows, cols].any(), "each corner's label is kept in the picture"
+    assert np.array_equal(frames["behind"], frames["none"])

@@ -12,7 +12,9 @@ import imageio.v2 as imageio
 import numpy as np
 import pytest
 
+from maopg.env import video
 from maopg.env.rollout import run_episode
+from maopg.env.video import video_title
 from maopg.experiment import studies
 from maopg.experiment.eval_cli import main
 from maopg.experiment.evaluate import evaluate
@@ -289,6 +291,8 @@ def test_evaluate_a_mac_dqn_checkpoint_made_by_the_grid(tmp_path, capsys):
     assert first.returns == again.returns and first.lengths == again.lengths
     assert all(0 < n <= 40 for n in first.lengths + explore.lengths)
     assert trained.actor(greedy=False).epsilon == trained.config.learner.eps_end
+    assert trained.label(greedy=False) == "mac-dqn seed 0 (ε-greedy)"  # a video's title
+    assert trained.label() == "mac-dqn seed 0 (greedy)"
 
     main(["evaluate", "--checkpoint", str(run_dir), "--episodes", "2", "--sample"])
     assert "| mac-dqn seed0 @" in capsys.readouterr().out
@@ -302,15 +306,21 @@ def _frames(path: Path) -> list[np.ndarray]:
         reader.close()
 
 
-def test_video_of_a_checkpoint(trained_run, tmp_path, capsys):
+def test_video_of_a_checkpoint(trained_run, tmp_path, capsys, monkeypatch):
     out = tmp_path / "trained.mp4"
+    titles = []
+    monkeypatch.setattr(video, "video_title", lambda *a: titles.append(a) or video_title(*a))
     main(["video", "--checkpoint", str(trained_run), "--out", str(out), "--seed", "3"])
-    printed = capsys.readouterr().out
-    ticks = int(printed.split(" in ")[1].split(" ticks")[0])
+    printed = capsys.readouterr()
+    ticks = int(printed.out.split(" in ")[1].split(" ticks")[0])
     assert len(_frames(out)) == ticks + 1
+    assert "video trained.mp4" in printed.err  # the progress bar
+    # the title names the checkpoint's method and training seed apart from the episode's seed
+    assert titles == [("tool_delivery", "continue", "async seed 0 (greedy)", 3)]
     # sampled options are seeded too: the same seed films the same episode
     args = ["video", "--checkpoint", str(trained_run), "--sample", "--seed", "4", "--out"]
-    main([*args, str(tmp_path / "a.mp4")])
+    main([*args, str(tmp_path / "a.mp4"), "--no-progress"])
+    assert titles[-1][2] == "async seed 0 (sampled)" and capsys.readouterr().err == ""
     main([*args, str(tmp_path / "b.mp4")])
     a, b = _frames(tmp_path / "a.mp4"), _frames(tmp_path / "b.mp4")
     assert len(a) == len(b) and all(np.array_equal(x, y) for x, y in zip(a, b, strict=True))

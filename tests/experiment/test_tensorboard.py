@@ -49,3 +49,16 @@ def test_the_final_policy_is_evaluated_and_filmed(events):
     assert any(t.startswith("eval_options_greedy/turtlebot0/") for t in events.Tags()["scalars"])
     (video,) = events.Images("rollout")
     assert video.encoded_image_string[:4] == b"GIF8" and video.width > 100
+
+
+def test_after_training_announces_its_steps_and_shows_their_progress(tmp_path, capfd):
+    run_dir = tmp_path / "run"
+    args = ["--task", "tool_delivery", "--total-samples", "30", "--run-dir", str(run_dir)]
+    tiny = ["batch_ticks=30", "num_envs=1", "env.max_ticks=8", "ppo.epochs=1", "plot=false"]
+    assert train_main([*args, *tiny, "eval_episodes=1"]) == 0
+    err = capfd.readouterr().err
+    plan = "after training: evaluation of 2 x 1 episodes (greedy, sampled), a rollout video"
+    assert plan in err
+    for bar in ("evaluating eval/return_greedy", "video rollout.mp4", "TensorBoard GIF of"):
+        assert bar in err, bar
+    assert err.index(plan) < err.index("video rollout.mp4") < err.index("GIF of")

@@ -1,4 +1,4 @@
-"""Headless camera rendering on real scenes: shapes, content, buffers, sizes."""
+"""Headless camera rendering on real scenes: shapes, content, buffers, sizes, projection."""
 
 from __future__ import annotations  # noqa: I001  (maopg must come before mujoco)
 
@@ -6,7 +6,7 @@ import maopg  # noqa: F401  (sets MUJOCO_GL=egl before mujoco is imported)
 import numpy as np
 import pytest
 
-from maopg.sim.render import CameraRenderer, VideoRenderer
+from maopg.sim.render import CameraRenderer, VideoRenderer, project_points
 from maopg.sim.scene import SceneBuilder
 
 CAMERAS = ["turtlebot0/camera", "turtlebot1/camera", "fetch/camera", "overview"]
@@ -58,3 +58,50 @@ def test_video_renderer_frames_the_overview_with_the_nicer_settings(td_scene) ->
     assert frame.shape == (120, 160, 3) and frame.std() > 5.0
     assert frame is not again and np.array_equal(frame, again)
     assert scene.model.vis.quality.offsamples == 4, "the observation setting must not leak"
+
+
+def test_a_point_on_the_optical_axis_projects_to_the_centre_and_behind_is_nan(td_scene) -> None:
+    scene = td_scene()
+    cam = scene.model.camera("overview").id
+    eye, axes = scene.data.cam_xpos[cam], scene.data.cam_xmat[cam].reshape(3, 3)
+    ahead, behind = eye - 5.0 * axes[:, 2], eye + 5.0 * axes[:, 2]
+    up = ahead + 0.5 * axes[:, 1]  # camera +y: up in the image, a smaller row
+    right = ahead + 0.5 * axes[:, 0]
+    pixels = project_points(
+        scene.model, scene.data, "overview", [ahead, behind, up, right], 120, 160
+    )
+    assert pixels[0] == pytest.approx([80.0, 60.0])
+    assert np.isnan(pixels[1]).all()
+    assert pixels[2, 0] == pytest.approx(80.0) and pixels[2, 1] < 60.0
+    assert pixels[3, 1] == pytest.approx(60.0) and pixels[3, 0] > 80.0
+    # half the vertical field of view away from the axis is the image's top edge
+    tan = np.tan(np.radians(scene.model.cam_fovy[cam]) / 2)
+    edge = ahead + 5.0 * tan * axes[:, 1]
+    assert project_points(scene.model, scene.data, cam, edge, 120, 160)[0] == pytest.approx([80, 0])
+
+
+def test_a_robot_is_drawn_where_its_body_projects(td_scene) -> None:
+    """Moving a Turtlebot changes the rendered overview only near its projected positions,
+    before and after: the projection agrees with MuJoCo's own camera."""
+    height, width = 120, 160
+    scenes = [td_scene(), td_scene(tb0=(5.5, 1.2))]
+    with CameraRenderer(scenes[0].model, height, width) as renderer:
+        before = renderer.render(scenes[0].data, ["overview"])[0].astype(int)
+    with CameraRenderer(scenes[1].model, height, width) as renderer:
+        after = renderer.render(scenes[1].data, ["overview"])[0].astype(int)
+    spots = [
+        project_points(
+            s.model,
+            s.data,
+            "overview",
+            s.data.xpos[s.robots["turtlebot0"].root_body_id],
+            height,
+            width,
+        )[0]
+        for s in scenes
+    ]
+    changed = np.argwhere(np.abs(after - before).sum(-1) > 30)[:, ::-1]  # (x, y)
+    assert len(changed) > 20
+    near = [np.linalg.norm(changed - spot, axis=1) for spot in spots]
+    assert all(d.min() < 4 for d in near), "each position shows the robot at its projection"
+    assert (np.minimum(*near) < 15).mean() > 0.95, "and nothing changed elsewhere"

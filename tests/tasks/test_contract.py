@@ -1,5 +1,6 @@
 """The contract every registered task meets: build, reset, spaces, a random episode under every
-strategy, determinism, a scripted policy if it declares one, and camera images.
+strategy, determinism, a scripted policy if it declares one, camera images, and video labels
+inside the overview.
 
 Parametrised over the registry, so a newly registered task is covered without a line here;
 ``SETTINGS`` adds runs of a task at other settings than its defaults (a scaled team).
@@ -15,7 +16,8 @@ import pytest
 from maopg.env import Strategy, make_env
 from maopg.env.pettingzoo import OptionParallelEnv
 from maopg.env.rollout import RandomPolicy, reference_policy, run_episode
-from maopg.env.video import state_lines
+from maopg.env.video import OVERVIEW_SIZE, state_lines
+from maopg.sim.render import project_points
 from maopg.tasks import SceneTask, Task, TaskConfig, task_entry, task_names
 
 TASKS = task_names()
@@ -71,6 +73,14 @@ def test_spec_spaces_and_the_reset_point_agree(task: str, settings: dict) -> Non
             assert parallel.observation_space(name).contains(obs), name
         lines = state_lines(task, env.task.describe())
         assert lines and all(isinstance(line, str) for line in lines)
+        if isinstance(env.task, SceneTask):  # a video labels these on its overview
+            labels = env.task.labels()
+            names = [text for text, _ in labels[: spec.num_agents]]
+            assert names == list(env.task.agent_names), "the robots come first"
+            scene = env.task.scene
+            points = np.array([xyz for _, xyz in labels])
+            pixels = project_points(scene.model, scene.data, "overview", points, *OVERVIEW_SIZE)
+            assert ((pixels >= 0) & (pixels < OVERVIEW_SIZE[::-1])).all(), "all in the picture"
     finally:
         env.close()
 

@@ -52,8 +52,14 @@ def test_the_canonical_team_keeps_the_canonical_names_and_layouts() -> None:
 def test_names_and_observations_of_the_benchmark_team() -> None:
     env = make_env("tool_delivery", overrides=team_settings((6, 2, 3)))
     spec = env.spec
+    labels = env.task.labels()
+    workshops = env.task.team.workshops
     env.close()
     assert spec.agent_names == (*(f"turtlebot{w}" for w in range(6)), "fetch0", "fetch1")
+    # a video labels the robots, then each human (by its MJCF name) where it works
+    assert [text for text, _ in labels] == [*spec.agent_names, "human", "human1", "human2"]
+    for h, (_, xyz) in enumerate(labels[8:]):
+        assert np.linalg.norm(xyz[:2] - np.asarray(workshops[h])) < 1.0
     turtle = ("GoToWS(0)", "GoToWS(1)", "GoToWS(2)", "GoToTR(0)", "GoToTR(1)")
     assert spec.agents[5].option_names == (*turtle, "GetTool(0)", "GetTool(1)")
     passes = tuple(f"PassTo({w})" for w in range(6))

@@ -130,6 +130,8 @@ class ToolDelivery(SceneTask):
                 *(self._desk_slot(f, k) for f in team.fetch_ids for k in range(config.max_staged)),
             )
         }
+        model = self.scene.model
+        self._human_bodies = [model.body(f"{team.human(h)}/human").id for h in range(team.humans)]
         self._options = option_sets(config)
         self.reset(0)
 
@@ -444,6 +446,14 @@ class ToolDelivery(SceneTask):
                 staged[(MAX_STAGED_SEEN + 1) * f + count] = 1.0
         obs[layout["carried"]][s.carried[agent]] = 1.0
         return obs
+
+    def labels(self) -> list[tuple[str, np.ndarray]]:
+        """The robots, and each human by name at its workshop."""
+        xpos = self.scene.data.xpos
+        humans = [
+            (self.team.human(h), xpos[body].copy()) for h, body in enumerate(self._human_bodies)
+        ]
+        return super().labels() + humans
 
     def describe(self) -> dict[str, object]:
         """The state for logs and the video panel: ``human_stage`` (an int, or one per human),

@@ -89,6 +89,7 @@ class WaterFilling(SceneTask):
             JarHandle(self.scene.model, f"jar{c}", self.scene.data) for c in range(team.jars)
         ]
         model = self.scene.model
+        self._jar_tops = [model.site(f"jar{c}/top").id for c in range(team.jars)]
         res = config.grid_resolution
         z = config.cruise_altitude
         # One planner per kind, shared by its robots (same robot, same grid, same fields).
@@ -294,6 +295,12 @@ class WaterFilling(SceneTask):
         x, y = self.planar_position(agent)
         obs[layout["position"]] = (x / self.half_extent[0], y / self.half_extent[1])
         return obs
+
+    def labels(self) -> list[tuple[str, np.ndarray]]:
+        """The robots, and each jar's index over its glass (the jar prop's ``top`` site)."""
+        site_xpos = self.scene.data.site_xpos
+        jars = [(f"jar {c}", site_xpos[site].copy()) for c, site in enumerate(self._jar_tops)]
+        return super().labels() + jars
 
     def describe(self) -> dict[str, object]:
         """Levels, knowledge, fills, and each robot's position (``<name>_xy`` for a vehicle,
