@@ -22,6 +22,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import resource
 import subprocess
 import sys
@@ -106,6 +107,8 @@ def main() -> None:
 
     from maopg.experiment.sysinfo import markdown
 
+    print("### Policy cost against team size: product categorical vs autoregressive")
+    print("(`bench/policy_scaling.py`)\n")
     print(markdown(gl=False))
     print(
         f"\nOne policy step (forward, sample, log-prob + entropy, backward) on {args.batch} "
@@ -137,6 +140,7 @@ def main() -> None:
             (x - mx) ** 2 for x in xs
         )
         print(f"| {options} | fit | | | | AR time ∝ N^{slope:.2f} (least squares, log-log) | | |")
+    print(f"\nload average (1 min) at the end: {os.getloadavg()[0]:.2f}")
 
 
 if __name__ == "__main__":
