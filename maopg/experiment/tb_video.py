@@ -34,41 +34,43 @@ def gif_bytes(frames: list[Image.Image], fps: float) -> bytes:
     return buffer.getvalue()
 
 
-def add_video(writer, tag: str, mp4: Path, step: int, *, progress: bool = False) -> None:
-    """Add the video at ``mp4`` to ``writer`` (a ``SummaryWriter``) as an animated GIF
-    (``progress``: a bar over the frames on stderr)."""
+def add_video(
+    writer, tag: str, mp4: Path, step: int, *, frames: int, progress: bool = False
+) -> None:
+    """Add the video at ``mp4`` of ``frames`` frames (the recorder knows how many: counting
+    them would decode the file once more) to ``writer`` (a ``SummaryWriter``) as an animated
+    GIF (``progress``: a bar over the frames on stderr)."""
     import imageio.v2 as imageio
     from tensorboard.compat.proto.summary_pb2 import Summary
 
     reader = imageio.get_reader(mp4)
     try:
         fps = float(reader.get_meta_data().get("fps", 4.0))
-        count = reader.count_frames()
-        every = 2 if count > MAX_FRAMES else 1
-        frames = []
+        every = 2 if frames > MAX_FRAMES else 1
+        kept: list[Image.Image] = []
         bar = tqdm(
             reader,
-            total=count,
+            total=frames,
             desc=f"TensorBoard GIF of {mp4.name}",
             unit="frame",
             disable=not progress,
             leave=False,
         )
         for k, frame in enumerate(bar):
-            if k % every or len(frames) >= MAX_FRAMES:
+            if k % every or len(kept) >= MAX_FRAMES:
                 continue
             image = Image.fromarray(frame)
             size = (int(image.width * SCALE), int(image.height * SCALE))
-            frames.append(image.resize(size, Image.BILINEAR).quantize(colors=64))
+            kept.append(image.resize(size, Image.BILINEAR).quantize(colors=64))
     finally:
         reader.close()
-    if not frames:
+    if not kept:
         return
-    width, height = frames[0].size
+    width, height = kept[0].size
     image = Summary.Image(
         height=height,
         width=width,
         colorspace=3,
-        encoded_image_string=gif_bytes(frames, fps / every),
+        encoded_image_string=gif_bytes(kept, fps / every),
     )
     writer.file_writer.add_summary(Summary(value=[Summary.Value(tag=tag, image=image)]), step)

@@ -411,9 +411,8 @@ def after_training(run_dir: Path) -> None:
     env = trained.make_env(0)
     tb = SummaryWriter(str(run_dir / TENSORBOARD))
     try:
-        for greedy, tag in zip((True, False), EVAL_TAGS, strict=True):
-            if not config.eval_episodes:
-                break
+        evaluations = zip((True, False), EVAL_TAGS, strict=True) if config.eval_episodes else ()
+        for greedy, tag in evaluations:
             result = evaluate(
                 env,
                 trained.actor(greedy=greedy),
@@ -441,7 +440,14 @@ def after_training(run_dir: Path) -> None:
             )
             if video.cut:
                 _note(f"{video.path} stops at tick {video.ticks}; the episode went on")
-            add_video(tb, "rollout", video.path, trained.samples, progress=config.progress)
+            add_video(
+                tb,
+                "rollout",
+                video.path,
+                trained.samples,
+                frames=video.frames,
+                progress=config.progress,
+            )
     finally:
         tb.close()
         env.close()
