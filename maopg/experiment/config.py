@@ -6,7 +6,8 @@ checkpoints) are top-level; the learner's hyper-parameters form the section its 
 (``ppo`` for MAPPO, ``dqn`` for Mac-DQN, or a user learner's own). Command-line ``key=value``
 overrides address fields by name (``num_envs=8``), ``SECTION.NAME=VALUE`` the section
 (``ppo.epochs=5``, ``dqn.lr=1e-3``), ``env.NAME=VALUE`` the task's settings
-(``env.max_ticks=100``) and ``ray.NAME=VALUE`` the Ray backend's (``ray.address=auto``). Fields
+(``env.max_ticks=100``), ``ray.NAME=VALUE`` the Ray backend's (``ray.address=auto``) and
+``wandb.NAME=VALUE`` the W&B logger's (``wandb.project=mine``): :data:`RUN_SECTIONS`. Fields
 left ``None`` take per-task defaults (declared by the task at registration) in
 :meth:`TrainConfig.resolved`.
 
@@ -35,6 +36,8 @@ from maopg.env.ray_backend import INSTALL_HINT, RayOptions, ray_available
 from maopg.env.vector import BACKENDS, EnvConfig
 from maopg.experiment.config_file import read_config_file
 from maopg.experiment.methods import get_method, section_classes
+from maopg.experiment.wandb_log import INSTALL_HINT as WANDB_HINT
+from maopg.experiment.wandb_log import WandbOptions, wandb_available
 from maopg.learner.mappo import PPOConfig
 from maopg.settings import Settings, setting
 from maopg.sim.egl_check import gl_problem
@@ -50,6 +53,16 @@ LEGACY_FLAT_KEYS = frozenset(f.name for f in dataclasses.fields(PPOConfig))
 
 DEVICES = ("auto", "cpu", "cuda")
 """The values of the ``device`` setting."""
+
+LOGGERS = ("tensorboard", "wandb")
+"""The values of the ``logger`` setting."""
+
+RUN_SECTIONS: dict[str, type[Settings]] = {"ray": RayOptions, "wandb": WandbOptions}
+"""Config sections of every run, whatever its method: where it runs and where it logs, never
+what it computes (so a resumed run may change them)."""
+
+NOT_RUN_FIELDS = ("env_overrides", "learner", *RUN_SECTIONS)
+"""TrainConfig fields that are no ``key=value`` setting of their own."""
 
 
 @dataclass
@@ -82,6 +95,12 @@ class TrainConfig(Settings):
     ``threads`` (at least 2)."""
     ray: RayOptions = field(default_factory=RayOptions)
     """Where the ``ray`` backend's actors run (``ray.address=auto``; :class:`RayOptions`)."""
+    logger: str = setting("tensorboard", choices=LOGGERS)
+    """Where the per-iteration record goes besides ``metrics.csv``: ``tensorboard`` (always
+    written) or ``wandb``, which mirrors it to Weights & Biases as well (the optional extra
+    ``maopg[wandb]``; the ``wandb.*`` settings, :mod:`maopg.experiment.wandb_log`)."""
+    wandb: WandbOptions = field(default_factory=WandbOptions)
+    """The W&B project, entity, group and mode of ``logger=wandb`` (:class:`WandbOptions`)."""
     gamma: float = setting(0.99, ge=0.0, le=1.0)
     """Discount per tick (it also discounts the environment's rewards)."""
     hidden: int = setting(128, ge=1)
@@ -168,6 +187,8 @@ class TrainConfig(Settings):
         cfg.validate()
         if cfg.backend == "ray" and not ray_available():
             raise ValueError(INSTALL_HINT)
+        if cfg.logger == "wandb" and not wandb_available():
+            raise ValueError(WANDB_HINT)
         cfg.learner.validate()
         make_config(cfg.task, cfg.env_overrides)  # the task settings' names and kinds
         return cfg
@@ -203,14 +224,15 @@ class TrainConfig(Settings):
             section = get_method(self.method).default_config()
         values["env_overrides"] = dict(self.env_overrides)
         values["plugins"] = list(self.plugins)
-        values["ray"] = dataclasses.asdict(self.ray)
+        for name in RUN_SECTIONS:
+            values[name] = dataclasses.asdict(getattr(self, name))
         values[self.section] = dataclasses.asdict(section)
         return values
 
     def flat(self) -> dict[str, Any]:
         """:meth:`to_dict` with section fields named as on the command line (``ppo.lr``)."""
         flat = self.to_dict()
-        for name in (self.section, "ray"):
+        for name in (self.section, *RUN_SECTIONS):
             flat.update({f"{name}.{key}": v for key, v in flat.pop(name).items()})
         return flat
 
@@ -234,10 +256,11 @@ class TrainConfig(Settings):
                 f"(its section is {own!r})"
             )
         section = values.pop(own, None)
-        ray = values.pop("ray", None)
+        run_sections = {name: values.pop(name, None) for name in RUN_SECTIONS}
         config = _build(TrainConfig, values, "")
-        if ray is not None:
-            config.ray = _build(RayOptions, ray, "ray.")
+        for name, given in run_sections.items():
+            if given is not None:
+                setattr(config, name, _build(RUN_SECTIONS[name], given, f"{name}."))
         if section is not None:
             _build(method.config_class, section, f"{own}.")  # unknown keys, by name
             config.learner = method.default_config(**section)
@@ -272,7 +295,7 @@ def resolve_device(device: str) -> str:
 
 
 def _build(cls: type, data: dict[str, Any], prefix: str) -> Any:
-    names = {f.name for f in dataclasses.fields(cls)} - {"learner", "ray"}
+    names = {f.name for f in dataclasses.fields(cls)} - {"learner", *RUN_SECTIONS}
     unknown = sorted(set(data) - names)
     if unknown:
         raise ValueError(f"unknown config keys {[prefix + k for k in unknown]}")
@@ -360,8 +383,10 @@ def parse_overrides(items: list[str], method: str) -> dict[str, Any]:
             values[key] = _parse_field(TrainConfig, key, text, "")
         elif section == "env":
             values.setdefault("env_overrides", {}).update(parse_task_settings([f"{name}={text}"]))
-        elif section == "ray":
-            values.setdefault("ray", {})[name] = _parse_field(RayOptions, name, text, "ray.")
+        elif section in RUN_SECTIONS:
+            values.setdefault(section, {})[name] = _parse_field(
+                RUN_SECTIONS[section], name, text, f"{section}."
+            )
         elif section == own:
             values.setdefault(section, {})[name] = _parse_field(
                 sections[section], name, text, f"{section}."
@@ -371,17 +396,13 @@ def parse_overrides(items: list[str], method: str) -> dict[str, Any]:
                 f"{item!r}: method {method!r} reads the {own!r} section, not {section!r}"
             )
         else:
-            known = sorted({own, "env", "ray"})
+            known = sorted({own, "env", *RUN_SECTIONS})
             raise ValueError(f"unknown config section {section!r} in {item!r}; known: {known}")
     return values
 
 
 def _run_fields() -> list[str]:
-    return sorted(
-        f.name
-        for f in dataclasses.fields(TrainConfig)
-        if f.name not in ("env_overrides", "learner", "ray")
-    )
+    return sorted(f.name for f in dataclasses.fields(TrainConfig) if f.name not in NOT_RUN_FIELDS)
 
 
 def _parse_field(cls: type, name: str, text: str, prefix: str) -> Any:

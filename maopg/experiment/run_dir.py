@@ -17,7 +17,10 @@ import os
 import shutil
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from maopg.experiment.wandb_log import WandbMirror
 
 CONFIG = "config.json"
 METRICS = "metrics.csv"
@@ -50,15 +53,22 @@ class RunLog:
     two, iteration and samples, index the rows; the rest become TensorBoard scalars over samples.
     ``resume_samples`` is the sample count of the checkpoint a resumed run continues from: rows
     after it (a killed run's last ones) are dropped from both records. Without it the run starts
-    from its beginning, and no row or event of an earlier attempt survives.
+    from its beginning, and no row or event of an earlier attempt survives. With ``mirror``
+    (``logger=wandb``) the scalars go to W&B too, which keeps its own rule for resumed runs
+    (:mod:`maopg.experiment.wandb_log`).
     """
 
     def __init__(
-        self, run_dir: Path, columns: tuple[str, ...], resume_samples: int | None = None
+        self,
+        run_dir: Path,
+        columns: tuple[str, ...],
+        resume_samples: int | None = None,
+        mirror: WandbMirror | None = None,
     ) -> None:
         from torch.utils.tensorboard import SummaryWriter
 
         self.columns = columns
+        self.mirror = mirror
         self.path = run_dir / METRICS
         if resume_samples is None or not self.path.exists():
             self.path.write_text(",".join(columns) + "\n")
@@ -81,16 +91,17 @@ class RunLog:
     def write(self, row: dict[str, Any]) -> None:
         with self.path.open("a", newline="") as handle:
             handle.write(",".join(_format(row[c]) for c in self.columns) + "\n")
-        step = int(row["samples"])
-        for key in self.columns[2:]:
-            value = float(row[key])
-            if not math.isnan(value):
-                self.tb.add_scalar(f"train/{key}", value, step)
+        values = {f"train/{key}": float(row[key]) for key in self.columns[2:]}
+        self.scalars("", {k: v for k, v in values.items() if not math.isnan(v)}, row["samples"])
 
     def scalars(self, prefix: str, values: dict[str, float], step: int) -> None:
-        """TensorBoard-only scalars ``prefix/key`` (their keys vary by task, so no CSV column)."""
-        for key, value in values.items():
-            self.tb.add_scalar(f"{prefix}/{key}", value, step)
+        """Scalars ``prefix/key`` in TensorBoard (and W&B) only: their keys vary by task, so they
+        have no CSV column."""
+        tags = {f"{prefix}/{key}" if prefix else key: value for key, value in values.items()}
+        for tag, value in tags.items():
+            self.tb.add_scalar(tag, value, int(step))
+        if self.mirror is not None:
+            self.mirror.log(int(step), tags)
 
     def hparams(self, config: dict[str, Any], metrics: Sequence[str]) -> None:
         """The run's settings in TensorBoard's HPARAMS tab, paired with the ``metrics`` tags it
@@ -110,6 +121,8 @@ class RunLog:
         """Put the buffered TensorBoard events on disk. Before each checkpoint: a kill after it
         must not lose the rows the checkpoint covers, which a resume does not log again."""
         self.tb.flush()
+        if self.mirror is not None:
+            self.mirror.flush()
 
     def close(self) -> None:
         self.tb.close()

@@ -26,10 +26,9 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
-from maopg.env.ray_backend import RayOptions
 from maopg.env.vector import SeededVectorEnv
 from maopg.env.video import record_episode
-from maopg.experiment.config import TrainConfig
+from maopg.experiment.config import RUN_SECTIONS, TrainConfig
 from maopg.experiment.evaluate import evaluate
 from maopg.experiment.loading import load_trained
 from maopg.experiment.methods import get_method
@@ -48,6 +47,7 @@ from maopg.experiment.run_dir import (
     write_done,
 )
 from maopg.experiment.tb_video import add_video
+from maopg.experiment.wandb_log import WandbMirror
 from maopg.experiment.watch import StepWatch
 from maopg.learner import (
     CheckpointError,
@@ -72,7 +72,8 @@ RESUMABLE_KEYS = (
     "num_workers",
     "run_dir",
     "plugins",
-    *(f"ray.{f.name}" for f in dataclasses.fields(RayOptions)),
+    "logger",
+    *(f"{name}.{f.name}" for name, cls in RUN_SECTIONS.items() for f in dataclasses.fields(cls)),
     "device",
 )
 """Config fields a resumed run may change: none of them changes what is computed. ``device``
@@ -136,16 +137,23 @@ def _check_run_dir(config: TrainConfig, resume: bool, overwrite: bool) -> TrainC
     return None
 
 
-def _open_run_dir(config: TrainConfig, *, overwrite: bool) -> None:
-    """Create (``overwrite``: empty) the run directory and save the config; a checkpoint write
-    that a kill interrupted left a temporary file, which goes."""
+def _open_run_dir(config: TrainConfig, *, overwrite: bool) -> WandbMirror | None:
+    """Create (``overwrite``: empty) the run directory, open the run's W&B mirror
+    (``logger=wandb``) and save the config; a checkpoint write that a kill interrupted left a
+    temporary file, which goes. ``config.json`` comes last: it marks the directory as holding
+    a run, so a W&B start that fails (no login, no network) leaves none behind."""
     run_dir = Path(config.run_dir)  # type: ignore[arg-type]
     if overwrite and (run_dir / CONFIG).exists():
         shutil.rmtree(run_dir)
     run_dir.mkdir(parents=True, exist_ok=True)
     for name in (CHECKPOINT, FINAL):
         remove_stale_temporaries(run_dir / name)
+    mirror = None
+    if config.logger == "wandb":
+        name = f"{config.task}/{config.method}/seed{config.seed}"
+        mirror = WandbMirror(run_dir, config.wandb, name=name, config=config.flat())
     config.save(run_dir / CONFIG)
+    return mirror
 
 
 def _check_checkpoint(state: dict, config: TrainConfig, path: Path) -> None:
@@ -244,6 +252,7 @@ def train(config: TrainConfig, *, resume: bool = False, overwrite: bool = False)
         num_workers=config.num_workers,
         backend_options=config.backend_options(),
     )
+    mirror: WandbMirror | None = None
     try:
         size = {"hidden": config.hidden, "layers": config.layers}
         policy = method.build_policy(envs.spec, **size, config=config.learner)
@@ -259,7 +268,7 @@ def train(config: TrainConfig, *, resume: bool = False, overwrite: bool = False)
             device=torch.device(config.device),
         )
         learner = method.learner(policy, setup)
-        _open_run_dir(config, overwrite=overwrite and saved is None)  # --resume wins
+        mirror = _open_run_dir(config, overwrite=overwrite and saved is None)  # --resume wins
         if done is not None:
             # A larger budget: unfinished again until it is reached. The old weights go with
             # the marker, so a killed extension cannot pass its old policy off as the final one
@@ -285,7 +294,9 @@ def train(config: TrainConfig, *, resume: bool = False, overwrite: bool = False)
                 )
         else:
             envs.reset()
-        log = RunLog(run_dir, method.columns, resume_samples=samples if resume else None)
+        log = RunLog(
+            run_dir, method.columns, resume_samples=samples if resume else None, mirror=mirror
+        )
         checkpointed = iteration if resume else None
 
         def checkpoint() -> None:
@@ -355,9 +366,17 @@ def train(config: TrainConfig, *, resume: bool = False, overwrite: bool = False)
                 **learner.final_state(),
             },
         )
+    except BaseException:
+        if mirror is not None:
+            mirror.close(failed=True)
+        raise
     finally:
         envs.close()
-    after_training(run_dir)
+    try:
+        after_training(run_dir, mirror)
+    finally:
+        if mirror is not None:
+            mirror.close()
     write_done(run_dir, iterations=iteration, samples=samples, wall_time=wall_time)
     return run_dir
 
@@ -382,7 +401,7 @@ EVAL_TAGS = ("eval/return_greedy", "eval/return_sampled")
 """The final policy's evaluation in TensorBoard, also the metrics of its HPARAMS tab."""
 
 
-def after_training(run_dir: Path) -> None:
+def after_training(run_dir: Path, mirror: WandbMirror | None = None) -> None:
     """Artifacts of a finished run, each in TensorBoard too: with ``eval_episodes``, the final
     policy's mean return, greedy and sampled, over that many seeded episodes (its option choices
     per agent beside them); with ``plot``, the learning-curve plot; with ``video``, a rollout of
@@ -395,6 +414,7 @@ def after_training(run_dir: Path) -> None:
 
     With ``progress``, one line first names the steps to come (:func:`after_training_plan`),
     and the evaluation, the video and its TensorBoard GIF each show a bar with its own ETA.
+    With ``mirror`` the evaluation becomes the W&B run's summary, and the video goes there too.
     """
     from torch.utils.tensorboard import SummaryWriter
 
@@ -410,6 +430,8 @@ def after_training(run_dir: Path) -> None:
     trained = load_trained(run_dir / FINAL)
     env = trained.make_env(0)
     tb = SummaryWriter(str(run_dir / TENSORBOARD))
+    summary: dict[str, float] = {}
+    video_path = None
     try:
         evaluations = zip((True, False), EVAL_TAGS, strict=True) if config.eval_episodes else ()
         for greedy, tag in evaluations:
@@ -420,14 +442,14 @@ def after_training(run_dir: Path) -> None:
                 label=tag,
                 progress=config.progress,
             )
-            tb.add_scalar(tag, float(np.mean(result.returns)), trained.samples)
+            summary[tag] = float(np.mean(result.returns))
             kind = tag.split("_")[-1]
             for agent, counts in result.choices.items():
                 total = sum(counts.values())
                 for option, count in counts.items():
-                    tb.add_scalar(
-                        f"eval_options_{kind}/{agent}/{option}", count / total, trained.samples
-                    )
+                    summary[f"eval_options_{kind}/{agent}/{option}"] = count / total
+        for tag, value in summary.items():
+            tb.add_scalar(tag, value, trained.samples)
         if config.video:
             greedy = not config.video_sample
             video = record_episode(
@@ -448,6 +470,9 @@ def after_training(run_dir: Path) -> None:
                 frames=video.frames,
                 progress=config.progress,
             )
+            video_path = video.path
     finally:
         tb.close()
         env.close()
+    if mirror is not None:
+        mirror.final(summary, video_path)
