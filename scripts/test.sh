@@ -6,4 +6,5 @@ cd "$(dirname "$0")/.."
 MAOPG_EXTRAS=dev,ray,wandb bash scripts/setup.sh
 .venv/bin/ruff format --check .
 .venv/bin/ruff check .
-.venv/bin/python -m pytest "$@"
+# One test process per core (pytest-xdist); the Ray tests stay together on one of them.
+.venv/bin/python -m pytest -n auto --dist loadgroup "$@"

@@ -25,6 +25,8 @@ from maopg.experiment.run_dir import TIMING_COLUMNS
 from maopg.experiment.train_cli import main
 
 ray = pytest.importorskip("ray")
+# One worker of a parallel test run (pytest -n, scripts/test.sh) runs them all, on one Ray.
+pytestmark = pytest.mark.xdist_group("ray")
 
 CONFIG = EnvConfig(task="tool_delivery", strategy="continue", images=True)
 RUN = ["--seed", "1", "batch_ticks=100", "num_envs=3", "ppo.epochs=2", "progress=false"]

@@ -1,11 +1,14 @@
-"""The TorchRL recipe of ``docs/torchrl.md`` runs as written: its code blocks, executed in order,
-wrap the PettingZoo view with TorchRL's ``PettingZooWrapper`` and pass ``check_env_specs``; the
-masks keep continuing agents on their options, the state is the view's joint observation, and
-the SMDP advantages it computes with TorchRL equal maopg's own (``compute_gae``)."""
+"""The TorchRL and BenchMARL recipes of ``docs/torchrl.md`` run as written: the TorchRL code
+blocks, executed in order, wrap the PettingZoo view with TorchRL's ``PettingZooWrapper`` and pass
+``check_env_specs``; the masks keep continuing agents on their options, the state is the view's
+joint observation, and the SMDP advantages it computes with TorchRL equal maopg's own
+(``compute_gae``). The BenchMARL block trains BenchMARL's MAPPO on the wrapped view."""
 
 from __future__ import annotations
 
 import re
+import sys
+import types
 from pathlib import Path
 
 import numpy as np
@@ -22,9 +25,9 @@ CODE = re.compile(r"```python\n(.*?)```", re.DOTALL)
 def recipe():
     """The namespace the recipe's blocks leave behind (its ``env``, ``view``, rollout, ...)."""
     blocks = CODE.findall(RECIPE.read_text())
-    assert len(blocks) == 2, "the recipe's code blocks changed: update this test"
+    assert len(blocks) == 3, "the recipe's code blocks changed: update this test"
     namespace: dict = {}
-    exec(compile("\n".join(blocks), str(RECIPE), "exec"), namespace)
+    exec(compile("\n".join(blocks[:2]), str(RECIPE), "exec"), namespace)
     yield namespace
     namespace["env"].close()
 
@@ -90,3 +93,26 @@ def test_the_recipes_advantages_are_maopgs_smdp_advantages(recipe):
     )
     np.testing.assert_allclose(advantage[:, 0].numpy(), expected, rtol=1e-5, atol=1e-5)
     np.testing.assert_allclose(target[:, 0].numpy(), expected_target, rtol=1e-5, atol=1e-5)
+
+
+def test_benchmarls_mappo_trains_on_the_wrapped_view(recipe, tmp_path, monkeypatch):
+    """The BenchMARL block (after the wrapper block, whose names it uses) runs two iterations;
+    the batch BenchMARL collected obeys the masks, so continuing agents kept their options."""
+    pytest.importorskip("benchmarl")
+    monkeypatch.chdir(tmp_path)  # BenchMARL writes its experiment folder into the working dir
+    # BenchMARL pickles the task, so its class must live in an importable module.
+    module = types.ModuleType("maopg_benchmarl_recipe")
+    module.__dict__.update({k: v for k, v in recipe.items() if not k.startswith("__")})
+    monkeypatch.setitem(sys.modules, module.__name__, module)
+    exec(compile(CODE.findall(RECIPE.read_text())[2], str(RECIPE), "exec"), module.__dict__)
+
+    experiment = module.experiment
+    assert experiment.n_iters_performed == 2 and experiment.total_frames == 400
+    for group in ("turtlebots", "fetch"):
+        buffer = experiment.replay_buffers[group]
+        batch = buffer.storage[: len(buffer)]
+        mask, action = batch[group, "action_mask"], batch[group, "action"]
+        assert mask.gather(-1, action.unsqueeze(-1)).all()
+        continuing = mask.sum(-1) == 1
+        assert continuing.any() and torch.isfinite(batch[group, "logits"]).all()
+    assert batch["state"].shape == (200, 33)
