@@ -9,6 +9,24 @@ from maopg.env.contract import AgentSpec, DecisionPoint, EnvSpec, Strategy
 from maopg.env.option_env import OptionEnv
 from maopg.tasks import load
 
+OWN_ARGUMENTS = {
+    "images": "the run's images (images=true, --images)",
+    "image_size": "the run's image_size (image_size=84)",
+    "primitive": "the method (--method end2end acts in primitive actions)",
+}
+"""Task settings that :func:`make_env` sets from its own arguments (a run's ``images`` and
+``image_size``, its method's strategy): an ``env.`` override of them would contradict the run's
+setting, and ``config.json`` would record the overridden value."""
+
+
+def check_overrides(overrides: Mapping[str, Any]) -> None:
+    """Refuse task overrides of :data:`OWN_ARGUMENTS`, naming the setting to use instead."""
+    for key, instead in OWN_ARGUMENTS.items():
+        if key in overrides:
+            raise ValueError(
+                f"env.{key}={overrides[key]!r} is not a task override: it is set by {instead}"
+            )
+
 
 def make_env(
     task: str,
@@ -25,6 +43,7 @@ def make_env(
     ``primitive`` strategy switches the task to its one-tick primitive actions.
     """
     strategy = Strategy(strategy)
+    check_overrides(overrides or {})
     config = {
         "images": images,
         "image_size": image_size,

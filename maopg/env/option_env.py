@@ -15,6 +15,7 @@ episode at once, truncated and unsolved (see :mod:`maopg.env.contract`, "Physics
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -41,7 +42,7 @@ class OptionEnv:
         if not 0.0 <= gamma <= 1.0:
             raise ValueError(f"gamma must be in [0, 1], got {gamma}")
         self.gamma = gamma
-        self._seed = seed
+        self._seed = _seed(seed, "seed")
         self._episode = 0
         n = len(task.agent_names)
         self._options = [tuple(task.options(i)) for i in range(n)]
@@ -86,6 +87,7 @@ class OptionEnv:
         ``(env seed, e)``, so a run is reproducible from its seed alone."""
         if seed is None:
             seed = int(np.random.SeedSequence([self._seed, self._episode]).generate_state(1)[0])
+        seed = _seed(seed, "reset seed")
         self._episode += 1
         self.task.reset(seed)
         self._executions = [None] * self.num_agents
@@ -267,3 +269,11 @@ class OptionEnv:
                     "is not available now"
                 )
         return joint.astype(np.int64)
+
+
+def _seed(value: Any, name: str) -> int:
+    """A seed as numpy's generators take it: an integer >= 0 (a numpy integer too), else a
+    ``ValueError`` naming it (numpy's own message would not say which seed)."""
+    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 0:
+        raise ValueError(f"{name} must be an integer >= 0, got {value!r}")
+    return int(value)

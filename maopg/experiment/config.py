@@ -32,6 +32,7 @@ from typing import Any, Union, get_args, get_origin, get_type_hints
 
 import torch
 
+from maopg.env import check_overrides
 from maopg.env.ray_backend import INSTALL_HINT, RayOptions, ray_available
 from maopg.env.vector import BACKENDS, EnvConfig
 from maopg.experiment.config_file import read_config_file
@@ -127,7 +128,7 @@ class TrainConfig(Settings):
     """Draw ``learning_curve.png`` at the end (~0.5-1 s, mostly importing matplotlib; ``false``
     skips it, as the tests' short runs do: ``python -m eval plot`` draws any run's curves later
     from its ``metrics.csv``)."""
-    eval_episodes: int = 5
+    eval_episodes: int = setting(5, ge=0)
     """Seeded episodes the final policy plays at the end, greedy and sampled, for TensorBoard
     (``eval/return_greedy``, ``eval/return_sampled``, option choices per agent); 0 skips it, as
     the reproduction grid does (its ``evaluation.md`` evaluates every run's weights itself)."""
@@ -152,6 +153,7 @@ class TrainConfig(Settings):
             raise ValueError(f"backend must be one of {sorted(BACKENDS)}, got {self.backend!r}")
         if self.backend == "processes" and self.num_workers < 1:
             raise ValueError("backend=processes needs num_workers >= 1")
+        check_overrides(self.env_overrides)
 
     # ------------------------------------------------------------------ derived views
     @property

@@ -441,9 +441,12 @@ def reproduce(
     """Run (or resume) the study's grid, then regenerate the results from the finished runs
     under ``runs_root`` (``eval_episodes=0`` skips ``evaluation.md``; ``reference_episodes``
     are the reference policies' episodes in it and in a normalised study's scores;
-    ``baseline_root``: where the paper's runs are, default its run root)."""
+    ``baseline_root``: where the paper's runs are, default its run root). A ``dry_run``
+    (of :func:`run_grid`) only lists what would run: it writes nothing."""
     study = get_study(study) if isinstance(study, str) else study
     outcomes = run_grid(runs_root, study=study, **grid_kw) if train else {}
+    if grid_kw.get("dry_run"):
+        return outcomes, []
     runs = discover_runs([runs_root]) if Path(runs_root).exists() else []
     if study.baselines:
         runs += baseline_runs(study, baseline_root)

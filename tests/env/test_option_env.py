@@ -177,6 +177,21 @@ def test_same_seed_same_trajectory() -> None:
     assert trajectory(5) != trajectory(6)
 
 
+@pytest.mark.parametrize("bad", [-1, 1.5, "3", True, None])
+def test_seeds_are_integers_at_least_zero_in_the_python_api_too(bad) -> None:
+    """The command lines refuse negative seeds; so do ``make_env`` and ``reset`` (numpy's own
+    error would not name the seed, and a bool would pass as 1)."""
+    if bad is not None:
+        with pytest.raises(ValueError, match=r"^seed must be an integer >= 0"):
+            make_env("tool_delivery", "continue", seed=bad)
+    env = make_env("tool_delivery", "continue", seed=np.int64(3))
+    env.reset(seed=np.int64(4))
+    if bad is not None:
+        with pytest.raises(ValueError, match=r"^reset seed must be an integer >= 0"):
+            env.reset(seed=bad)
+    env.close()
+
+
 def test_bad_input_raises_value_errors_that_name_the_agent() -> None:
     env = make_env("tool_delivery", "continue", overrides={"mask_options": True})
     point = env.reset()

@@ -361,6 +361,8 @@ def test_grid_skips_finished_runs_and_resumes_unfinished_ones(tmp_path):
 
     dry = run_grid(runs_root, methods=["async"], dry_run=True, log=lambda _: None, **grid)
     assert list(dry.values()) == ["skipped", "would resume"]
+    assert reproduce(runs_root, results, methods=["async"], dry_run=True, **grid)[1] == []
+    assert not results.exists()  # a dry run lists, it writes no figure or table
 
     with pytest.raises(ValueError, match="unknown method"):  # a typo is not an empty grid
         run_grid(runs_root, methods=["async", "asnyc"], **grid)
