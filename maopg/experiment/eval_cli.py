@@ -74,6 +74,7 @@ def _policy_args(parser: argparse.ArgumentParser) -> None:
 
 
 def _progress_arg(parser: argparse.ArgumentParser, over: str) -> None:
+    """``--no-progress``: every subcommand that takes long shows a bar (over ``over``)."""
     parser.add_argument(
         "--no-progress", action="store_true", help=f"no progress bar over {over} (stderr)"
     )

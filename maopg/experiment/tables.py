@@ -89,7 +89,8 @@ def differences_note(selected: Sequence[tuple[tuple[str, str], list[RunData]]]) 
 def peak_table(
     runs: Iterable[RunData], *, window: int = 1, methods: Sequence[str] | None = None
 ) -> str:
-    """Per task × method: seeds, peak and final return, peak paper's metric, samples trained."""
+    """Per task × method: seeds, peak and final return, peak paper's metric, samples trained;
+    then :func:`differences_note`."""
     rows = []
     selected = _selected(runs, methods)
     for (task, method), group in selected:
