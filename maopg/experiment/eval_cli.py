@@ -7,6 +7,7 @@ python -m eval evaluate --reference scripted --task tool_delivery --episodes 10
 python -m eval evaluate --reference scripted --task tool_delivery env.turtlebot_robot=diffbot
 python -m eval video --checkpoint runs/tool_delivery/async/seed0 --out out/td_async.mp4
 python -m eval plot runs/ --out out/plots
+python -m eval plot runs/ --reference-episodes 0     # no scripted / random reference lines
 python -m eval table runs/ --threshold tool_delivery=200
 python -m eval check-robot --robot drone --role drone
 python -m eval reproduce              # the committed grid: results/runs → results/
@@ -70,6 +71,18 @@ def _policy_args(parser: argparse.ArgumentParser) -> None:
         help="where a checkpoint's policy runs (default cpu: it acts on one point at a time, "
         "and evaluations on the CPU are bit-reproducible)",
     )
+
+
+def _progress_arg(parser: argparse.ArgumentParser, over: str) -> None:
+    """``--no-progress``: every subcommand that takes long shows a bar (over ``over``)."""
+    parser.add_argument(
+        "--no-progress", action="store_true", help=f"no progress bar over {over} (stderr)"
+    )
+
+
+REFERENCE_EPISODES = 10
+"""``eval plot``'s episodes per reference policy: a level to read the curves against, in a few
+seconds per task (``eval reproduce`` measures its tables' with 100)."""
 
 
 SETTING = re.compile(r"^([A-Za-z_][\w.]*)=")
@@ -174,7 +187,9 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
 
     label, _, env, policy = _policy_and_env(args)
     try:
-        result = evaluate(env, policy, args.episodes, seed=args.seed, label=label)
+        result = evaluate(
+            env, policy, args.episodes, seed=args.seed, label=label, progress=not args.no_progress
+        )
     finally:
         env.close()
     print(results_table([result.summary]), end="")
@@ -221,8 +236,23 @@ def cmd_plot(args: argparse.Namespace) -> int:
     runs = discover_runs(args.runs, unfinished=args.unfinished)
     if not runs:
         raise ValueError(f"no {_which(args)} run directories under {args.runs}")
+    references = None
+    if args.reference_episodes > 0 and args.metric == "episode_return":
+        from maopg.experiment.reproduce import reference_lines
+
+        plotted = [r for r in runs if args.methods is None or r.method in args.methods]
+        references, notes = reference_lines(
+            plotted, args.reference_episodes, progress=not args.no_progress
+        )
+        for note in notes:
+            print(note)
     for path in plot_all(
-        runs, args.out, metric=args.metric, window=args.window, methods=args.methods
+        runs,
+        args.out,
+        metric=args.metric,
+        window=args.window,
+        methods=args.methods,
+        references=references,
     ):
         print(f"wrote {path}")
     return 0
@@ -303,15 +333,14 @@ def build_parser() -> argparse.ArgumentParser:
     _policy_args(p)
     p.add_argument("--episodes", type=at_least(1), default=20)
     p.add_argument("--json", type=Path, help="also write the result as JSON here")
+    _progress_arg(p, "the episodes")
     p.set_defaults(func=cmd_evaluate)
 
     p = sub.add_parser("video", help="record one episode as a headless MP4")
     _policy_args(p)
     p.add_argument("--out", type=Path, required=True)
     p.add_argument("--fps", type=at_least(1), default=4)
-    p.add_argument(
-        "--no-progress", action="store_true", help="no progress bar over the ticks (stderr)"
-    )
+    _progress_arg(p, "the ticks")
     p.set_defaults(func=cmd_video)
 
     for name, func, text in (
@@ -331,6 +360,15 @@ def build_parser() -> argparse.ArgumentParser:
                 default="episode_return",
                 choices=("episode_return", "option_step_reward"),
             )
+            p.add_argument(
+                "--reference-episodes",
+                type=at_least(0),
+                default=REFERENCE_EPISODES,
+                metavar="N",
+                help="episodes of the scripted and random policies at each task's settings, "
+                "drawn as reference lines of the returns (default %(default)s; 0: no lines)",
+            )
+            _progress_arg(p, "the reference policies' episodes")
         else:
             p.add_argument("--threshold", nargs="*", default=[], metavar="TASK=VALUE")
             p.add_argument("--out", type=Path, help="also write the Markdown here")

@@ -1,11 +1,15 @@
 """Learning curves from run directories: one figure per task, one line per method, mean ± std
 band over seeds, x = low-level samples (the paper's Fig. 4 axes), saved as PNG and SVG.
 
-Each method keeps its colour in every figure, so curves can be compared across tasks.
+Each method keeps its colour in every figure, so curves can be compared across tasks. Lines
+of different methods compare like with like only where they learnt from the same settings, so a
+caption under the axes names each learnt setting that differs between them (none when all
+share their settings).
 """
 
 from __future__ import annotations
 
+import textwrap
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 
@@ -14,6 +18,7 @@ from maopg.experiment.runs import (
     RETURN,
     RunData,
     base_method,
+    differences_line,
     group_runs,
     mean_curve,
 )
@@ -31,6 +36,10 @@ LINE_STYLES = ("-", "--", ":", "-.")
 RECURRENT_SUFFIX = "-rnn"
 """A recurrent preset (``async-rnn``) is drawn dashed in its feed-forward method's colour, so
 the recurrent benchmark reads against the grid it sits beside."""
+CAPTION_WIDTH = 120
+"""Characters per line of the caption (7 pt text across the 7 in wide figure)."""
+CAPTION_LINE = 0.028
+"""Figure height (fraction) one caption line takes."""
 METRIC_LABELS = {
     RETURN: "mean episode return",
     PAPER_METRIC: "mean option-step reward (paper's metric)",
@@ -57,7 +66,8 @@ def plot_task(
 
     ``references`` (name → return, e.g. the scripted and random policies) are drawn as
     horizontal dashed lines, the levels a curve is read against. A method with several
-    settings groups draws one line per group, in its colour with another dash pattern."""
+    settings groups draws one line per group, in its colour with another dash pattern; the
+    settings that differ between the drawn groups are named in a caption."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -70,11 +80,13 @@ def plot_task(
     groups = group_runs(r for r in runs if methods is None or r.method in methods)
     fig, ax = plt.subplots(figsize=(7, 4.5))
     variants: dict[str, int] = {}
+    drawn_groups: dict[str, list[RunData]] = {}
     for label in ordered_labels((name for _, name in groups), methods):
         group = groups[(task, label)]
         x, mean, std = mean_curve(group, metric, window)
         if x.size == 0:
             continue
+        drawn_groups[label] = group
         method = base_method(label)
         family = method.removesuffix(RECURRENT_SUFFIX)
         colour = METHOD_COLOURS.get(family)
@@ -99,7 +111,13 @@ def plot_task(
     ax.ticklabel_format(axis="x", style="sci", scilimits=(0, 3))
     if ax.lines:
         ax.legend(loc="best", fontsize=8)
-    fig.tight_layout()
+    differences = differences_line(drawn_groups)
+    bottom = 0.0
+    if differences:
+        caption = textwrap.wrap(f"Settings that differ: {differences}.", CAPTION_WIDTH)
+        fig.text(0.01, 0.01, "\n".join(caption), fontsize=7, ha="left", va="bottom")
+        bottom = CAPTION_LINE * len(caption) + 0.01
+    fig.tight_layout(rect=(0, bottom, 1, 1))
     out_stem = Path(out_stem)
     out_stem.parent.mkdir(parents=True, exist_ok=True)
     paths = [out_stem.with_suffix(".png"), out_stem.with_suffix(".svg")]
@@ -119,8 +137,10 @@ def plot_all(
     window: int = 5,
     methods: Sequence[str] | None = None,
     prefix: str = "curves",
+    references: Mapping[str, Mapping[str, float]] | None = None,
 ) -> list[Path]:
-    """One figure per task found in ``runs``: ``<out_dir>/<prefix>_<task>.png|svg``."""
+    """One figure per task found in ``runs``: ``<out_dir>/<prefix>_<task>.png|svg``
+    (``references``: task → its reference levels, :func:`plot_task`'s)."""
     runs = list(runs)
     paths: list[Path] = []
     for task in sorted({r.task for r in runs}):
@@ -131,6 +151,7 @@ def plot_all(
             metric=metric,
             window=window,
             methods=methods,
+            references=(references or {}).get(task),
         )
     return paths
 

@@ -44,7 +44,7 @@ from maopg.experiment.evaluate import evaluate, results_table
 from maopg.experiment.methods import method_names
 from maopg.experiment.plots import curve_table, plot_task
 from maopg.experiment.run_dir import CONFIG, DONE, FINAL
-from maopg.experiment.runs import RunData, discover_runs
+from maopg.experiment.runs import RunData, differing_settings, discover_runs, task_settings
 from maopg.experiment.studies import PAPER, Study, StudyTask, get_study
 from maopg.experiment.tables import normalised_table, peak_table, threshold_table
 from maopg.sim.assets import ASSETS_DIR
@@ -321,11 +321,15 @@ def _cached(path: Path, key: dict, compute: Callable[[], list[dict]]) -> list[di
 
 
 def reference_results(
-    tasks: Sequence[StudyTask], episodes: int, strategies: Sequence[str] = REFERENCE_STRATEGIES
+    tasks: Sequence[StudyTask],
+    episodes: int,
+    strategies: Sequence[str] = REFERENCE_STRATEGIES,
+    *,
+    progress: bool = False,
 ) -> list[dict]:
     """The scripted and uniform-random policies of each task (at its study settings) under
     each strategy: the levels every learning curve is read against (state observations:
-    neither policy looks at images).
+    neither policy looks at images; ``progress``: a bar over each one's episodes on stderr).
     """
     from maopg.env import make_env
     from maopg.env.rollout import REFERENCE_POLICIES, reference_policy
@@ -337,10 +341,33 @@ def reference_results(
             try:
                 for name in REFERENCE_POLICIES:
                     policy = reference_policy(name, env)
-                    results.append(evaluate(env, policy, episodes, label=name).summary)
+                    result = evaluate(env, policy, episodes, label=name, progress=progress)
+                    results.append(result.summary)
             finally:
                 env.close()
     return results
+
+
+def reference_lines(
+    runs: Sequence[RunData], episodes: int, *, progress: bool = False
+) -> tuple[dict[str, dict[str, float]], list[str]]:
+    """``(lines, notes)``: each task's scripted and random mean return over ``episodes``
+    (strategy ``continue``, as in every study's figures) at its runs' task settings, the
+    levels ``python -m eval plot`` draws. A task whose runs differ in their task settings has
+    no single level to draw: it gets none, and a note naming the settings."""
+    lines: dict[str, dict[str, float]] = {}
+    notes: list[str] = []
+    for task in sorted({r.task for r in runs}):
+        settings = [task_settings(r) for r in runs if r.task == task]
+        differ = differing_settings([{f"env.{k}": v for k, v in s.items()} for s in settings])
+        if differ:
+            differ_text = ", ".join(differ)
+            notes.append(f"{task}: no reference lines, its runs differ in {differ_text}")
+            continue
+        study_task = StudyTask(task, (), settings[0])
+        summaries = reference_results([study_task], episodes, ("continue",), progress=progress)
+        lines[task] = {s["label"]: s["return_mean"] for s in summaries}
+    return lines, notes
 
 
 def policy_results(run: RunData, episodes: int) -> list[dict]:

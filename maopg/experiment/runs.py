@@ -7,7 +7,9 @@ and ``option_step_reward``, the paper's metric). ``done.json`` appears when the 
 
 Runs are grouped by task, method *and* the settings that change what is learnt (a run with
 ``env.max_ticks=100`` or a recurrent Mac-DQN is not a seed of the default one); where a method
-has several such groups, each is labelled with the settings that tell them apart.
+has several such groups, each is labelled with the settings that tell them apart. Groups of
+different methods may have learnt from different settings too: :func:`settings_between_groups`
+names them, for the tables and figures to state.
 
 Curves are noisy per iteration, so statistics use a trailing moving average over ``window``
 iterations that reported a value; every statistic is computed per seed first and then
@@ -115,28 +117,110 @@ def flatten_config(config: dict[str, Any]) -> dict[str, Any]:
 
 
 NOT_LEARNT = frozenset(
-    {"task", "method", "seed", "run_dir", "plugins", "progress", "video", "plot"}
+    {"task", "method", "seed", "run_dir", "plugins", "progress", "video", "plot", "logger"}
     | {"video_sample", "checkpoint_every", "backend", "num_workers", "device", "torch_threads"}
     | {"eval_episodes"}
 )
-"""Settings that identify a run or say where and how it ran, not what it learnt (every backend
-and worker count gives the same curve); ``ray.*`` too."""
+"""Settings that identify a run or say where and how it ran and logged, not what it learnt
+(every backend and worker count gives the same curve); the run sections' too."""
+NOT_LEARNT_SECTIONS = ("ray.", "wandb.")
+"""The run sections (``config.RUN_SECTIONS``: where a run runs and logs), as key prefixes."""
 
 
-def _learnt_settings(run: RunData) -> dict[str, Any]:
-    return {k: v for k, v in run.config.items() if k not in NOT_LEARNT and not k.startswith("ray.")}
+def learnt_settings(run: RunData) -> dict[str, Any]:
+    """The run's settings that change what it learns (flattened keys)."""
+    return {
+        k: v
+        for k, v in run.config.items()
+        if k not in NOT_LEARNT and not k.startswith(NOT_LEARNT_SECTIONS)
+    }
+
+
+def task_settings(run: RunData) -> dict[str, Any]:
+    """The run's task settings (its ``env.KEY=VALUE``), as ``make_env`` takes them."""
+    return {k.removeprefix("env."): v for k, v in run.config.items() if k.startswith("env.")}
+
+
+def _compared_keys(settings: Sequence[dict[str, Any]]) -> set[str]:
+    """Every task setting (``env.*``; one a run does not set reads ``default``) and the other
+    keys all of ``settings`` have: a key only some have (another method's section, or a config
+    written by an older version) is not compared."""
+    keys = {k for s in settings for k in s if k.startswith("env.")}
+    return keys | (set.intersection(*(set(s) for s in settings)) if settings else set())
+
+
+def differing_settings(settings: Sequence[dict[str, Any]]) -> list[str]:
+    """The compared keys whose values differ between ``settings`` (one dict per run or group),
+    sorted."""
+    return sorted(
+        k
+        for k in _compared_keys(settings)
+        if len({json.dumps(s.get(k, "default")) for s in settings}) > 1
+    )
 
 
 def _variant_labels(runs: Sequence[RunData]) -> list[str]:
     """For runs of one task and method: ``""`` for each if they share their settings, else
-    each run's values of the settings that differ (``env.max_ticks=100``). A task setting a
-    run does not set reads ``default``; any other key only some configs have (written by an
-    older version) is not compared."""
-    settings = [_learnt_settings(r) for r in runs]
-    keys = {k for s in settings for k in s if k.startswith("env.")}
-    keys |= set.intersection(*(set(s) for s in settings)) if settings else set()
-    differ = sorted(k for k in keys if len({json.dumps(s.get(k, "default")) for s in settings}) > 1)
+    each run's values of the settings that differ (``env.max_ticks=100``)."""
+    settings = [learnt_settings(r) for r in runs]
+    differ = differing_settings(settings)
     return [", ".join(f"{k}={s.get(k, 'default')}" for k in differ) for s in settings]
+
+
+def shared_settings(runs: Sequence[RunData]) -> dict[str, Any]:
+    """The learnt settings (keyed as :func:`differing_settings` compares them) that every run
+    of a group has with the same value: what the group as a whole learnt from."""
+    settings = [learnt_settings(r) for r in runs]
+    differ = differing_settings(settings)
+    return {
+        k: settings[0].get(k, "default")
+        for k in sorted(_compared_keys(settings))
+        if k not in differ
+    }
+
+
+def _foreign_sections(method: str) -> tuple[str, ...]:
+    """Key prefixes of the learner sections ``method`` does not use (``dqn.`` for ``async``):
+    configs of an older version saved every section, and another method's hyper-parameters
+    are nothing a run learnt from. None for a method that is not registered here (a plugin's
+    that is not imported). The registry is imported here only: it brings torch, which the
+    curves and tables need nowhere else."""
+    from maopg.experiment.methods import get_method, section_classes
+
+    try:
+        own = get_method(method).section
+    except ValueError:
+        return ()
+    return tuple(f"{name}." for name in section_classes() if name != own)
+
+
+def settings_between_groups(
+    groups: dict[str, Sequence[RunData]],
+) -> list[tuple[str, dict[str, Any]]]:
+    """For the groups of one task (label → runs): each learnt setting whose value differs
+    between them, with every group's value (``default`` for a task setting a group does not
+    set), in key order — what a reader must know before comparing the groups' rows or lines.
+    Empty when they all learnt from the same settings (or there is one group)."""
+    if len(groups) < 2:
+        return []
+    shared = {}
+    for label, runs in groups.items():
+        foreign = _foreign_sections(runs[0].method)
+        settings = shared_settings(runs)
+        shared[label] = {k: v for k, v in settings.items() if not k.startswith(foreign)}
+    return [
+        (key, {label: s.get(key, "default") for label, s in shared.items()})
+        for key in differing_settings(list(shared.values()))
+    ]
+
+
+def differences_line(groups: dict[str, Sequence[RunData]]) -> str:
+    """:func:`settings_between_groups` in words (``""`` when there are none):
+    ``hidden (async 128, sync-cut 32); env.max_ticks (async default, sync-cut 100)``."""
+    return "; ".join(
+        f"{key} ({', '.join(f'{label} {value}' for label, value in values.items())})"
+        for key, values in settings_between_groups(groups)
+    )
 
 
 def discover_runs(roots: Iterable[str | Path], *, unfinished: bool = False) -> list[RunData]:

@@ -7,6 +7,10 @@ falls back (Mac-DQN exploring at its final ε, say) differs from one that stays 
 Samples to threshold = low-level samples until a seed's smoothed return first reached the
 task's threshold (declared by the task at registration, or given); seeds that never did are
 counted in the "reached" column, not averaged.
+
+Rows of different methods are only comparable where they learnt from the same settings, so a
+peak or normalised table ends with a line per task naming each learnt setting that differs
+between its rows, with every row's value (none when they all share their settings).
 """
 
 from __future__ import annotations
@@ -20,6 +24,7 @@ from maopg.experiment.runs import (
     RunData,
     Summary,
     base_method,
+    differences_line,
     final,
     group_runs,
     peak,
@@ -70,12 +75,25 @@ def _selected(
     )
 
 
+def differences_note(selected: Sequence[tuple[tuple[str, str], list[RunData]]]) -> str:
+    """For each task of the ``selected`` rows whose groups learnt from different settings:
+    ``Settings that differ between the tool_delivery rows: hidden (async 128, sync-cut 32)``."""
+    lines = []
+    for task in sorted({task for (task, _), _ in selected}):
+        line = differences_line({label: g for (t, label), g in selected if t == task})
+        if line:
+            lines.append(f"Settings that differ between the {task} rows: {line}.")
+    return "".join(f"\n{line}\n" for line in lines)
+
+
 def peak_table(
     runs: Iterable[RunData], *, window: int = 1, methods: Sequence[str] | None = None
 ) -> str:
-    """Per task × method: seeds, peak and final return, peak paper's metric, samples trained."""
+    """Per task × method: seeds, peak and final return, peak paper's metric, samples trained;
+    then :func:`differences_note`."""
     rows = []
-    for (task, method), group in _selected(runs, methods):
+    selected = _selected(runs, methods)
+    for (task, method), group in selected:
         returns = Summary.of([peak(r, RETURN, window) for r in group])
         last = Summary.of([final(r, RETURN) for r in group])
         paper = Summary.of(
@@ -105,7 +123,7 @@ def peak_table(
         "peak option-step reward (paper's metric)",
         "samples trained",
     ]
-    return _markdown(header, rows)
+    return _markdown(header, rows) + differences_note(selected)
 
 
 def threshold_table(
@@ -151,9 +169,8 @@ def normalised_table(runs: Iterable[RunData], references: Mapping[str, tuple[flo
     study's settings: 0 is the uniform-random policy, 1 the scripted heuristic.
     """
     rows = []
-    for (task, method), group in _selected(runs, None):
-        if task not in references:
-            continue
+    selected = [(key, g) for key, g in _selected(runs, None) if key[0] in references]
+    for (task, method), group in selected:
         random, scripted = references[task]
         scores = [(final(r, RETURN) - random) / (scripted - random) for r in group]
         rows.append(
@@ -166,4 +183,4 @@ def normalised_table(runs: Iterable[RunData], references: Mapping[str, tuple[flo
             ]
         )
     header = ["task", "method", "seeds", "final episode return (last 10%)", "normalised score"]
-    return _markdown(header, rows)
+    return _markdown(header, rows) + differences_note(selected)

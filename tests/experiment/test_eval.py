@@ -12,10 +12,11 @@ import imageio.v2 as imageio
 import numpy as np
 import pytest
 
-from maopg.env import video
-from maopg.env.rollout import run_episode
+from maopg.env import make_env, video
+from maopg.env.rollout import reference_policy, run_episode
 from maopg.env.video import video_title
 from maopg.experiment import studies
+from maopg.experiment.config import RUN_SECTIONS
 from maopg.experiment.eval_cli import main
 from maopg.experiment.evaluate import evaluate
 from maopg.experiment.loading import load_trained
@@ -25,11 +26,13 @@ from maopg.experiment.reproduce import (
     _train_args,
     cell_state,
     code_digest,
+    reference_lines,
     reproduce,
     run_grid,
 )
 from maopg.experiment.run_dir import DONE, FINAL
 from maopg.experiment.runs import (
+    NOT_LEARNT_SECTIONS,
     discover_runs,
     final,
     group_runs,
@@ -153,6 +156,78 @@ def test_runs_that_learnt_from_different_settings_are_not_pooled(tmp_path):
     assert "scripted (2)" in svg  # the reference level, as a dashed line
 
 
+def test_settings_that_differ_between_methods_are_stated(tmp_path, capsys):
+    """An async and a sync-cut run that learnt from different settings are no like-for-like
+    comparison: the table and the plot say what differs; where and how they ran (backend,
+    workers, device, logger, W&B) and another method's section (saved by older versions) do
+    not count."""
+    root = tmp_path / "runs"
+    ppo, dqn = {"lr": 0.1}, {"buffer_size": 5}
+    base = {"hidden": 128, "env_overrides": {}, "ppo": ppo, "dqn": dqn, "backend": "local"}
+    base |= {"num_workers": 0, "device": "cpu", "logger": "tensorboard", "wandb": {"project": "a"}}
+    cut = {**base, "hidden": 32, "env_overrides": {"max_ticks": 100}, "dqn": {"buffer_size": 7}}
+    cut |= {"backend": "ray", "num_workers": 4, "device": "cuda", "logger": "wandb"}
+    cut |= {"wandb": {"project": "b"}, "ray": {"address": "auto"}, "eval_episodes": 0}
+    for seed in (0, 1):
+        _fake_run(root, "tool_delivery", "async", seed, [100, 200], [1.0, 2.0], config=base)
+        _fake_run(root, "tool_delivery", "sync-cut", seed, [100, 200], [0.0, 1.0], config=cut)
+    _fake_run(root, "water_filling", "async", 0, [100], [1.0], config=base)
+    _fake_run(root, "water_filling", "sync-cut", 0, [100], [1.0], config={**base, "seed": 3})
+    runs = discover_runs([root])
+    assert set(NOT_LEARNT_SECTIONS) == {f"{name}." for name in RUN_SECTIONS}
+    note = (
+        "Settings that differ between the tool_delivery rows: env.max_ticks (async default, "
+        "sync-cut 100); hidden (async 128, sync-cut 32).\n"
+    )
+    table = peak_table(runs)
+    assert table.endswith("|\n\n" + note)  # one line under the table; none for water_filling
+    assert "| tool_delivery | async | 2 |" in table and "| tool_delivery | sync-cut | 2 |" in table
+    assert "water_filling rows" not in table
+    assert note not in peak_table(runs, methods=["async"])  # one group: nothing to compare
+    assert main(["table", str(root)]) == 0
+    assert note in capsys.readouterr().out
+    plot_task([r for r in runs if r.task == "tool_delivery"], tmp_path / "plot")
+    svg = (tmp_path / "plot.svg").read_text()
+    assert "Settings that differ: env.max_ticks (async default, sync-cut 100); hidden" in svg
+    plot_task([r for r in runs if r.task == "water_filling"], tmp_path / "shared")
+    assert "Settings that differ" not in (tmp_path / "shared.svg").read_text()
+
+
+def test_plot_draws_the_reference_policies_at_the_runs_task_settings(tmp_path, capsys):
+    """The scripted and random levels are measured at the runs' task settings (here a short
+    Tool Delivery); runs that differ in them get no lines and a note saying why."""
+    settings = {"max_ticks": 20}
+    root = tmp_path / "runs"
+    for method in ("async", "sync-cut"):
+        config = {"env_overrides": settings}
+        _fake_run(root, "tool_delivery", method, 0, [100, 200], [1.0, 2.0], config=config)
+    runs = discover_runs([root])
+    lines, notes = reference_lines(runs, 2)
+    assert notes == [] and list(lines) == ["tool_delivery"]
+    env = make_env("tool_delivery", seed=0, overrides=settings)
+    try:
+        for name in ("scripted", "random"):
+            alone = evaluate(env, reference_policy(name, env), 2)
+            assert all(n <= 20 for n in alone.lengths)
+            assert lines["tool_delivery"][name] == alone.summary["return_mean"]
+    finally:
+        env.close()
+    out = tmp_path / "fig"
+    plot = ["plot", str(root), "--out", str(out), "--reference-episodes", "2"]
+    assert main([*plot, "--no-progress"]) == 0
+    printed = capsys.readouterr()
+    assert printed.err == ""
+    svg = (out / "curves_tool_delivery.svg").read_text()
+    for name, level in lines["tool_delivery"].items():
+        assert f"{name} ({level:,.0f})" in svg
+    _fake_run(root, "tool_delivery", "async", 1, [100, 200], [1.0, 2.0])  # at the defaults
+    assert main(plot) == 0
+    printed = capsys.readouterr()
+    assert "tool_delivery: no reference lines, its runs differ in env.max_ticks" in printed.out
+    assert "evaluating" not in printed.err
+    assert "scripted (" not in (out / "curves_tool_delivery.svg").read_text()
+
+
 def test_tables_on_fabricated_runs(fabricated):
     runs = discover_runs([fabricated])
     table = peak_table(runs, window=1)
@@ -200,7 +275,9 @@ def test_table_and_plot_commands(fabricated, tmp_path, capsys):
     printed = capsys.readouterr().out
     assert "| tool_delivery | async | 200 | 300 | 1/2 |" in printed
     assert out_md.read_text() in printed
-    assert main(["plot", str(fabricated), "--out", str(tmp_path / "fig"), "--window", "1"]) == 0
+    plot = ["plot", str(fabricated), "--out", str(tmp_path / "fig"), "--window", "1"]
+    assert main([*plot, "--reference-episodes", "0"]) == 0
+    assert "evaluating" not in capsys.readouterr().err  # no reference lines, no evaluation
     png, svg = (
         tmp_path / "fig" / "curves_tool_delivery.png",
         tmp_path / "fig/curves_tool_delivery.svg",
@@ -209,8 +286,9 @@ def test_table_and_plot_commands(fabricated, tmp_path, capsys):
     assert image.ndim == 3 and image.shape[0] > 300 and image.shape[1] > 500
     text = svg.read_text()
     assert "async (2 seeds)" in text and "sync-cut (2 seeds)" in text
+    assert "Settings that differ" not in text and "Settings that differ" not in printed
     first = png.read_bytes(), text
-    assert main(["plot", str(fabricated), "--out", str(tmp_path / "fig"), "--window", "1"]) == 0
+    assert main([*plot, "--reference-episodes", "0"]) == 0
     assert (png.read_bytes(), svg.read_text()) == first  # redrawn byte for byte
     assert "low-level samples (ticks)" in text
     csv_text = curve_table(discover_runs([fabricated]), window=1).splitlines()
@@ -263,8 +341,11 @@ def test_evaluate_a_checkpoint(trained_run, tmp_path, capsys):
 
     out = tmp_path / "e.json"
     main(["evaluate", "--checkpoint", str(trained_run), "--episodes", "2", "--json", str(out)])
-    printed = capsys.readouterr().out
-    assert "| async seed0 @" in printed and f"\n{fetch.name}: " in printed
+    printed = capsys.readouterr()
+    assert "| async seed0 @" in printed.out and f"\n{fetch.name}: " in printed.out
+    assert "evaluating async seed0 @" in printed.err and "2/2" in printed.err  # the bar
+    main(["evaluate", "--checkpoint", str(trained_run), "--episodes", "1", "--no-progress"])
+    assert capsys.readouterr().err == ""
     saved = json.loads(out.read_text())
     assert saved["episodes"] == 2 and len(saved["per_episode"]["returns"]) == 2
 
@@ -334,8 +415,10 @@ def test_table_and_plot_commands_on_a_real_run(trained_run, tmp_path, capsys):
     printed = capsys.readouterr().out
     peak_return = peak(runs[0])
     assert f"| tool_delivery | async | 1 | {peak_return:.1f} |" in printed
-    assert main(["plot", root, "--out", str(tmp_path)]) == 0
-    assert "async (1 seed)" in (tmp_path / "curves_tool_delivery.svg").read_text()
+    assert main(["plot", root, "--out", str(tmp_path), "--reference-episodes", "2"]) == 0
+    assert "evaluating scripted" in capsys.readouterr().err  # the reference policies' bar
+    svg = (tmp_path / "curves_tool_delivery.svg").read_text()
+    assert "async (1 seed)" in svg and "scripted (" in svg and "random (" in svg
     assert imageio.imread(tmp_path / "curves_tool_delivery.png").ndim == 3
     assert [p.suffix for p in plot_all(runs, tmp_path)] == [".png", ".svg"]
 
