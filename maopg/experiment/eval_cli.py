@@ -349,7 +349,9 @@ def build_parser() -> argparse.ArgumentParser:
     ):
         p = sub.add_parser(name, help=text)
         p.add_argument("runs", nargs="+", type=Path, help="run directories or their roots")
-        p.add_argument("--window", type=int, default=5, help="moving-mean window (iterations)")
+        p.add_argument(
+            "--window", type=at_least(1), default=5, help="moving-mean window (iterations)"
+        )
         p.add_argument("--methods", nargs="+", help="only these methods, in this order")
         p.add_argument("--unfinished", action="store_true", help="include runs still in progress")
         p.set_defaults(func=func)
@@ -419,16 +421,16 @@ def build_parser() -> argparse.ArgumentParser:
         help="a YAML or JSON settings file given to every run's train command line",
     )
     p.add_argument("--threshold", nargs="*", default=[], metavar="TASK=VALUE")
-    p.add_argument("--window", type=int, default=5)
+    p.add_argument("--window", type=at_least(1), default=5)
     p.add_argument(
         "--eval-episodes",
-        type=int,
+        type=at_least(0),
         default=10,
         help="episodes per trained policy in evaluation.md (0: skip evaluation.md)",
     )
     p.add_argument(
         "--reference-episodes",
-        type=int,
+        type=at_least(1),
         default=100,
         help="episodes per reference policy in evaluation.md",
     )

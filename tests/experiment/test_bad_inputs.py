@@ -97,6 +97,12 @@ def test_the_debug_flag_shows_the_traceback(tmp_path):
 BAD_EVAL = [
     (["evaluate", "--reference", "scripted", "--seed", "-1"], r"argument --seed: must be >= 0"),
     (["evaluate", "--reference", "scripted", "--episodes", "0"], r"--episodes: must be >= 1"),
+    (["reproduce", "--eval-episodes", "-3", "--dry-run"], r"--eval-episodes: must be >= 0"),
+    (
+        ["reproduce", "--reference-episodes", "0", "--dry-run"],
+        r"--reference-episodes: must be >= 1",
+    ),
+    (["table", "results/runs", "--window", "0"], r"--window: must be >= 1"),
     (["evaluate", "--reference", "random", "env.max_ticks=0"], r"env\.max_ticks must be >= 1"),
     (["evaluate", "--reference", "random", "max_ticks=5"], r"takes task settings only, .*env\."),
     (
