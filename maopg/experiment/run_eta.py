@@ -20,12 +20,16 @@ from maopg.env.video import VIDEO_MAX_TICKS
 from maopg.experiment.config import TrainConfig
 from maopg.experiment.evaluate import EVAL_MAX_TICKS
 
-VIDEO_SECONDS_PER_FRAME = 0.2
+VIDEO_SECONDS_PER_FRAME = 0.3
 """Rendering, encoding and the TensorBoard GIF of one video frame, beyond the tick itself,
-measured on the 2-core development machine (two other jobs running) on Tool Delivery:
+measured on the 2-core development machine on Tool Delivery (whose overview costs about what
+Water Filling's does: :data:`maopg.env.video.VIDEO_MAX_TICKS`). With two other jobs running,
 ``time python -m eval video --reference random --task tool_delivery --no-progress --out v.mp4``
-(151 frames in 27 s, about 3 s of it start-up: 0.15 s a frame) and
-:func:`maopg.experiment.tb_video.add_video` on that file (4.2 s: 0.03 s a frame), rounded up."""
+took 27 s for 151 frames, 3 s of it start-up (0.15 s a frame), and
+:func:`maopg.experiment.tb_video.add_video` 4.2 s on that file (0.03 s a frame); inside a
+default training run (``python -m train --task tool_delivery --total-samples 1600``) on a
+busier machine the video bar ran at 3.3 frames/s (0.30 s) and the GIF at 0.045 s a frame. The
+busier figure is taken: the estimate errs long rather than short."""
 SETUP_SECONDS = 2.0
 """Loading ``final.pt``, building the evaluation environment and the TensorBoard writer."""
 PLOT_SECONDS = 1.0

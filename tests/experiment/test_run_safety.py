@@ -15,7 +15,8 @@ import pytest
 import torch
 from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
-from maopg.env import video
+from maopg.env import make_env, video
+from maopg.env.rollout import RandomPolicy
 from maopg.experiment import evaluate as evaluation
 from maopg.experiment.eval_cli import main as eval_main
 from maopg.experiment.run_dir import TIMING_COLUMNS
@@ -187,6 +188,23 @@ def test_the_evaluation_of_an_endless_episode_is_cut(tmp_path, monkeypatch, caps
     ) in capsys.readouterr().err
     assert {"eval/return_greedy", "eval/return_sampled"} <= set(_scalars(run_dir))
     assert (run_dir / "done.json").exists()
+
+
+def test_a_cut_episode_keeps_the_return_of_its_first_ticks():
+    """A bound above the episode changes nothing; one inside it stops the episode at that tick
+    with the return of the ticks played, however an option is under way."""
+    env = make_env("tool_delivery", seed=0)
+    try:
+        full = evaluation.evaluate(env, RandomPolicy(env.spec, 0), 1, seed=3)
+        loose = evaluation.evaluate(env, RandomPolicy(env.spec, 0), 1, seed=3, max_ticks=10**6)
+        assert (loose.returns, loose.lengths, loose.cut) == (full.returns, full.lengths, [False])
+        rewards: list[float] = []
+        env.add_tick_listener(lambda _env, reward: rewards.append(reward))
+        cut = evaluation.evaluate(env, RandomPolicy(env.spec, 0), 1, seed=3, max_ticks=17)
+    finally:
+        env.close()
+    assert full.lengths[0] > 17 and cut.cut == [True] and cut.lengths == [17]
+    assert cut.returns == [pytest.approx(sum(rewards))] and not cut.solved[0]
 
 
 def test_non_finite_settings_are_refused_before_anything_is_written(tmp_path, user_error):
