@@ -65,7 +65,23 @@ class EpisodeResult:
     solved: bool
     decisions: int
     rewards: list[float]
-    """Summed reward of every decision step (the paper's metric averages these)."""
+    """Summed reward of every completed decision step (the paper's metric averages these)."""
+    cut: bool = False
+    """The episode went on past ``max_ticks`` of :func:`run_episode` and was stopped there:
+    ``ret`` is then the return of its first ``ticks`` ticks, and it is not ``solved``."""
+
+
+class TickLimit(Exception):
+    """Raised by a tick listener to leave an episode mid-step at a tick limit."""
+
+
+def goes_on_past(env: OptionEnv, limit: int) -> bool:
+    """Whether the tick ``env`` just played is tick ``limit`` (or later) and the episode does
+    not end on it: where an episode bounded at ``limit`` ticks is cut, in the middle of an
+    option if need be (an option may run until the task's ``max_ticks``)."""
+    task = env.task
+    ends = task.terminated() or task.truncated() or task.ticks >= env.spec.max_ticks
+    return task.ticks >= limit and not ends
 
 
 def run_episode(
@@ -73,17 +89,38 @@ def run_episode(
     policy: ReferencePolicy,
     seed: int | None = None,
     on_step: Callable[[DecisionPoint], None] | None = None,
+    max_ticks: int | None = None,
 ) -> EpisodeResult:
-    """Play one episode to its end; ``on_step`` sees every decision point (e.g. for videos)."""
+    """Play one episode to its end; ``on_step`` sees every decision point (e.g. for videos).
+
+    With ``max_ticks`` an episode still running at that tick is cut there (``cut``), so its
+    length is bounded whatever the task's ``max_ticks`` (a user may set a billion); ``env`` is
+    then left mid-episode (reset it before stepping it again).
+    """
     point = env.reset(seed=seed)
     rewards: list[float] = []
-    if on_step:
-        on_step(point)
-    while not point.done:
-        point = env.step(policy(point))
-        rewards.append(point.reward)
+    played = [0.0]  # the return so far, tick by tick: a cut ends mid-step
+
+    def on_tick(tick_env: OptionEnv, reward: float) -> None:
+        played[0] += reward
+        if goes_on_past(tick_env, max_ticks):  # type: ignore[arg-type]
+            raise TickLimit
+
+    if max_ticks is not None:
+        env.add_tick_listener(on_tick)
+    try:
         if on_step:
             on_step(point)
+        while not point.done:
+            point = env.step(policy(point))
+            rewards.append(point.reward)
+            if on_step:
+                on_step(point)
+    except TickLimit:
+        return EpisodeResult(played[0], env.task.ticks, False, len(rewards), rewards, cut=True)
+    finally:
+        if max_ticks is not None:
+            env.remove_tick_listener(on_tick)
     episode = point.info["episode"]
     return EpisodeResult(
         episode["return"], episode["ticks"], episode["solved"], len(rewards), rewards

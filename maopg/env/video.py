@@ -55,7 +55,7 @@ from PIL import Image, ImageDraw, ImageFont
 
 import maopg  # noqa: F401  (sets MUJOCO_GL=egl before mujoco is imported)
 from maopg.env import DecisionPoint, OptionEnv
-from maopg.env.rollout import ReferencePolicy
+from maopg.env.rollout import ReferencePolicy, TickLimit, goes_on_past
 from maopg.sim.render import CameraRenderer, VideoRenderer, project_points
 from maopg.tasks import ObsLayout, SceneTask, Task, task_entry, task_names
 from maopg.tasks.text import generic_state_lines
@@ -436,10 +436,6 @@ class RecordedEpisode:
     """The episode went on past ``max_ticks`` of :func:`record_episode`; the video stops there."""
 
 
-class _Cut(Exception):
-    """Raised by the tick listener to leave the episode mid-step at the video's tick limit."""
-
-
 def record_episode(
     env: OptionEnv,
     policy: ReferencePolicy,
@@ -511,14 +507,12 @@ def record_episode(
         # what executes now: a finished agent waiting for the others under sync-wait is "idle"
         options[:] = tick_env.running_option_names()
         total[0] += reward
-        ticks = task.ticks
-        ends = task.terminated() or task.truncated() or ticks >= env.spec.max_ticks
-        cut = ticks >= limit and not ends
-        write(ticks, reward, "video cut (episode goes on)" if cut else "")
+        cut = goes_on_past(tick_env, limit)
+        write(task.ticks, reward, "video cut (episode goes on)" if cut else "")
         bar.update()
         started[:] = False
         if cut:
-            raise _Cut
+            raise TickLimit
 
     env.add_tick_listener(on_tick)
     try:
@@ -530,7 +524,7 @@ def record_episode(
             joint = np.asarray(policy(point))
             started[:] = point.choosing
             point = env.step(joint)
-    except _Cut:
+    except TickLimit:
         return RecordedEpisode(path, frames[0], composer.shape, total[0], limit, False, cut=True)
     finally:
         env.remove_tick_listener(on_tick)

@@ -4,6 +4,10 @@ The honest metric is the mean episode **return** (sum of tick rewards over an ep
 paper's Tool Delivery numbers are the mean **option-step reward** (the summed reward of one
 decision step, averaged over the steps of a batch); it is reported beside the return, in its
 own field, and the two must never be compared with each other.
+
+The evaluation after training bounds each episode at :data:`EVAL_MAX_TICKS` ticks, as the
+video is bounded, so a run with ``env.max_ticks=1000000000`` still finishes;
+``python -m eval evaluate``, the user's own evaluation, plays every episode to its end.
 """
 
 from __future__ import annotations
@@ -19,6 +23,13 @@ from tqdm import tqdm
 
 from maopg.env import DecisionPoint, OptionEnv
 from maopg.env.rollout import ReferencePolicy, run_episode
+
+EVAL_MAX_TICKS = 1000
+"""Ticks an episode of the evaluation after training plays at most (the trainer passes it as
+``max_ticks``): over three times the longest default episode (Water Filling's 300 ticks; Tool
+Delivery's 150), so default runs are never cut, while an endless one is, at a cost of minutes,
+not days. The same figure as the video's :data:`maopg.env.video.VIDEO_MAX_TICKS`, for the
+same reason, but its own constant: an evaluation without frames could afford more."""
 
 
 @dataclass
@@ -37,6 +48,9 @@ class EvalResult:
     choices: dict[str, dict[str, int]] = field(default_factory=dict, repr=False)
     """Agent → option name → how often the agent chose it, over all episodes: shows a policy
     that is stuck repeating one option, which a return alone does not."""
+    cut: list[bool] = field(default_factory=list, repr=False)
+    """Per episode: stopped at ``max_ticks`` of :func:`evaluate` while it went on (its return
+    and length are then those of its first ``max_ticks`` ticks)."""
 
     @property
     def summary(self) -> dict[str, Any]:
@@ -68,9 +82,11 @@ def evaluate(
     seed: int = 0,
     label: str = "",
     progress: bool = False,
+    max_ticks: int | None = None,
 ) -> EvalResult:
     """Play ``episodes`` episodes; episode ``j`` is reset with seed ``seed + j`` (``progress``:
-    a bar over the episodes on stderr)."""
+    a bar over the episodes on stderr). With ``max_ticks`` an episode still running at that
+    tick is cut there (:func:`maopg.env.rollout.run_episode`; ``cut`` says which)."""
     if episodes < 1:
         raise ValueError(f"episodes must be >= 1, got {episodes}")
     agents = env.spec.agents
@@ -89,7 +105,7 @@ def evaluate(
         disable=not progress,
         leave=False,
     )
-    results = [run_episode(env, counted, seed=j) for j in seeds]
+    results = [run_episode(env, counted, seed=j, max_ticks=max_ticks) for j in seeds]
     return EvalResult(
         label=label,
         task=env.spec.task,
@@ -100,6 +116,7 @@ def evaluate(
         solved=[r.solved for r in results],
         option_step_rewards=[x for r in results for x in r.rewards],
         choices={a.name: dict(c.most_common()) for a, c in zip(agents, choices, strict=True)},
+        cut=[r.cut for r in results],
     )
 
 

@@ -28,8 +28,8 @@ from tqdm import tqdm
 
 from maopg.env.vector import SeededVectorEnv
 from maopg.env.video import record_episode
+from maopg.experiment import evaluate as evaluation
 from maopg.experiment.config import RUN_SECTIONS, TrainConfig
-from maopg.experiment.evaluate import evaluate
 from maopg.experiment.loading import load_trained
 from maopg.experiment.methods import get_method
 from maopg.experiment.run_dir import (
@@ -46,6 +46,7 @@ from maopg.experiment.run_dir import (
     read_done,
     write_done,
 )
+from maopg.experiment.run_eta import RunRates, about, estimate_run
 from maopg.experiment.tb_video import add_video
 from maopg.experiment.wandb_log import WandbMirror
 from maopg.experiment.watch import StepWatch
@@ -181,6 +182,11 @@ def _envs_state(state: dict, path: Path) -> dict:
     raise CheckpointError(f"checkpoint {path} lacks the entries ['envs']")
 
 
+def _against(trained: int, budget: int) -> str:
+    """How ``trained`` samples stand to a ``budget`` they met: past it, or exactly at it."""
+    return f"{'more than' if trained > budget else 'which reaches'} the budget of {budget}"
+
+
 def _nothing_left(trained: int, config: TrainConfig, saved: TrainConfig) -> bool:
     """For a finished run that ``config`` resumes: whether its budget is already met (said on
     stderr, so a smaller budget does not pass unnoticed). A finished run keeps no checkpoint
@@ -189,7 +195,7 @@ def _nothing_left(trained: int, config: TrainConfig, saved: TrainConfig) -> bool
     if trained >= budget:  # type: ignore[operator]
         if budget < saved.total_samples:  # type: ignore[operator]
             _note(
-                f"{run_dir} already trained {trained} samples, more than the budget of {budget} "
+                f"{run_dir} already trained {trained} samples, {_against(trained, budget)} "
                 "it was resumed with; nothing to do"
             )
         else:
@@ -289,8 +295,9 @@ def train(config: TrainConfig, *, resume: bool = False, overwrite: bool = False)
             iteration, samples, wall_time = state["iteration"], state["samples"], state["wall_time"]
             if samples >= config.total_samples:  # type: ignore[operator]
                 _note(
-                    f"{checkpoint_path} already trained {samples} samples, more than the budget "
-                    f"of {config.total_samples} it was resumed with; the run finishes there"
+                    f"{checkpoint_path} already trained {samples} samples, "
+                    f"{_against(samples, config.total_samples)} it was resumed with; "  # type: ignore[arg-type]
+                    "the run finishes there"
                 )
         else:
             envs.reset()
@@ -326,11 +333,15 @@ def train(config: TrainConfig, *, resume: bool = False, overwrite: bool = False)
         )
         watch = StepWatch(envs.spec, bar)
         envs.on_step = watch
+        session_start, session_samples = time.perf_counter(), samples
+        after: float | None = None  # the after-training steps' estimated time, once measured
+        ret = ""  # the postfix's last episode return
         if not resume:
             log.hparams(config.flat(), EVAL_TAGS)
         try:
             while samples < config.total_samples:  # type: ignore[operator]
                 start = time.perf_counter()
+                watch.start()
                 try:
                     row, ticks = learner.iteration(envs, samples)
                 except NonFiniteError as err:
@@ -349,7 +360,16 @@ def train(config: TrainConfig, *, resume: bool = False, overwrite: bool = False)
                 log.scalars("options", watch.take_frequencies(), samples)
                 bar.n = min(samples, config.total_samples)  # type: ignore[type-var]
                 if row["episodes"]:
-                    bar.set_postfix(ret=f"{row['episode_return']:.1f}", refresh=False)
+                    ret = f"ret={row['episode_return']:.1f}, "
+                rates = RunRates(
+                    samples_per_s=(samples - session_samples)
+                    / (time.perf_counter() - session_start),
+                    collecting_s=watch.collecting_s,
+                    ticks=watch.ticks,
+                    episode_length=watch.episode_length,
+                )
+                training, after = estimate_run(config, samples, rates, envs.spec.max_ticks)
+                bar.set_postfix_str(f"{ret}run done in {about(training + after)}", refresh=False)
                 bar.refresh()
                 if iteration % config.checkpoint_every == 0 or samples >= config.total_samples:  # type: ignore[operator]
                     checkpoint()
@@ -373,7 +393,7 @@ def train(config: TrainConfig, *, resume: bool = False, overwrite: bool = False)
     finally:
         envs.close()
     try:
-        after_training(run_dir, mirror)
+        after_training(run_dir, mirror, estimate=after)
     finally:
         if mirror is not None:
             mirror.close()
@@ -381,11 +401,14 @@ def train(config: TrainConfig, *, resume: bool = False, overwrite: bool = False)
     return run_dir
 
 
-def after_training_plan(config: TrainConfig) -> str:
+def after_training_plan(config: TrainConfig, estimate: float | None = None) -> str:
     """The line that says what follows training and how big each step is, so the time after
     the training bar (about 30 s for Tool Delivery's defaults on 2 cores, README "Progress")
-    is announced rather than silent; empty when nothing follows. An ETA for these steps is
-    not guessed before any of them ran: each step's own bar gives one from its measured rate.
+    is announced rather than silent; empty when nothing follows. ``estimate``: the seconds
+    these steps should take, from the rates the training measured
+    (:func:`maopg.experiment.run_eta.after_training_seconds`, the part of the training bar's
+    ``run done in ~...`` that follows the samples), said as an estimate; each step's own bar
+    then gives its ETA from its own measured rate.
     """
     steps = []
     if config.eval_episodes:
@@ -394,14 +417,19 @@ def after_training_plan(config: TrainConfig) -> str:
         steps.append("the learning-curve plot")
     if config.video:
         steps.append("a rollout video of one episode and its TensorBoard GIF")
-    return f"after training: {', '.join(steps)}" if steps else ""
+    if not steps:
+        return ""
+    guess = f" (estimated {about(estimate)})" if estimate is not None else ""
+    return f"after training{guess}: {', '.join(steps)}"
 
 
 EVAL_TAGS = ("eval/return_greedy", "eval/return_sampled")
 """The final policy's evaluation in TensorBoard, also the metrics of its HPARAMS tab."""
 
 
-def after_training(run_dir: Path, mirror: WandbMirror | None = None) -> None:
+def after_training(
+    run_dir: Path, mirror: WandbMirror | None = None, *, estimate: float | None = None
+) -> None:
     """Artifacts of a finished run, each in TensorBoard too: with ``eval_episodes``, the final
     policy's mean return, greedy and sampled, over that many seeded episodes (its option choices
     per agent beside them); with ``plot``, the learning-curve plot; with ``video``, a rollout of
@@ -410,16 +438,20 @@ def after_training(run_dir: Path, mirror: WandbMirror | None = None) -> None:
 
     The policy is loaded back from ``final.pt`` the way ``python -m eval`` loads it, so what is
     reported is what the saved checkpoint does. The video's length is bounded
-    (:data:`maopg.env.video.VIDEO_MAX_TICKS`) whatever the task's ``max_ticks``.
+    (:data:`maopg.env.video.VIDEO_MAX_TICKS`) whatever the task's ``max_ticks``, and so is
+    each evaluation episode's (:data:`maopg.experiment.evaluate.EVAL_MAX_TICKS`): an episode
+    still going there is cut, its return is that of its first ticks, and one ``note:`` line
+    says how many were.
 
-    With ``progress``, one line first names the steps to come (:func:`after_training_plan`),
+    With ``progress``, one line first names the steps to come (:func:`after_training_plan`,
+    with the ``estimate`` of their time when the training measured one),
     and the evaluation, the video and its TensorBoard GIF each show a bar with its own ETA.
     With ``mirror`` the evaluation becomes the W&B run's summary, and the video goes there too.
     """
     from torch.utils.tensorboard import SummaryWriter
 
     config = TrainConfig.load(run_dir / CONFIG)
-    plan = after_training_plan(config)
+    plan = after_training_plan(config, estimate)
     if config.progress and plan:
         _note(plan)
     if config.plot:
@@ -434,20 +466,30 @@ def after_training(run_dir: Path, mirror: WandbMirror | None = None) -> None:
     video_path = None
     try:
         evaluations = zip((True, False), EVAL_TAGS, strict=True) if config.eval_episodes else ()
+        cut = 0
         for greedy, tag in evaluations:
-            result = evaluate(
+            result = evaluation.evaluate(
                 env,
                 trained.actor(greedy=greedy),
                 config.eval_episodes,
                 label=tag,
                 progress=config.progress,
+                max_ticks=evaluation.EVAL_MAX_TICKS,
             )
+            cut += sum(result.cut)
             summary[tag] = float(np.mean(result.returns))
             kind = tag.split("_")[-1]
             for agent, counts in result.choices.items():
                 total = sum(counts.values())
                 for option, count in counts.items():
                     summary[f"eval_options_{kind}/{agent}/{option}"] = count / total
+        if cut:
+            limit = evaluation.EVAL_MAX_TICKS
+            _note(
+                f"evaluation: {cut} of the {2 * config.eval_episodes} episodes (greedy and "
+                f"sampled) went on past tick {limit} and were cut there; their returns are over "
+                f"the first {limit} ticks"
+            )
         for tag, value in summary.items():
             tb.add_scalar(tag, value, trained.samples)
         if config.video:

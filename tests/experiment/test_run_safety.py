@@ -15,7 +15,9 @@ import pytest
 import torch
 from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
-from maopg.env import video
+from maopg.env import make_env, video
+from maopg.env.rollout import RandomPolicy
+from maopg.experiment import evaluate as evaluation
 from maopg.experiment.eval_cli import main as eval_main
 from maopg.experiment.run_dir import TIMING_COLUMNS
 from maopg.experiment.train_cli import main
@@ -173,6 +175,38 @@ def test_the_video_of_an_endless_episode_is_cut(tmp_path, monkeypatch, capsys):
     assert (run_dir / "done.json").exists()
 
 
+def test_the_evaluation_of_an_endless_episode_is_cut(tmp_path, monkeypatch, capsys):
+    """``env.max_ticks=1000000000``: each episode of the evaluation after training stops at its
+    tick limit (set low here; by default :data:`maopg.experiment.evaluate.EVAL_MAX_TICKS`), a
+    note says so, and TensorBoard has the returns."""
+    monkeypatch.setattr(evaluation, "EVAL_MAX_TICKS", 30)
+    run_dir = tmp_path / "run"
+    _train(run_dir, "--total-samples", "60", "eval_episodes=2", "env.max_ticks=1000000000")
+    assert (
+        "note: evaluation: 4 of the 4 episodes (greedy and sampled) went on past tick 30 and "
+        "were cut there; their returns are over the first 30 ticks"
+    ) in capsys.readouterr().err
+    assert {"eval/return_greedy", "eval/return_sampled"} <= set(_scalars(run_dir))
+    assert (run_dir / "done.json").exists()
+
+
+def test_a_cut_episode_keeps_the_return_of_its_first_ticks():
+    """A bound above the episode changes nothing; one inside it stops the episode at that tick
+    with the return of the ticks played, however an option is under way."""
+    env = make_env("tool_delivery", seed=0)
+    try:
+        full = evaluation.evaluate(env, RandomPolicy(env.spec, 0), 1, seed=3)
+        loose = evaluation.evaluate(env, RandomPolicy(env.spec, 0), 1, seed=3, max_ticks=10**6)
+        assert (loose.returns, loose.lengths, loose.cut) == (full.returns, full.lengths, [False])
+        rewards: list[float] = []
+        env.add_tick_listener(lambda _env, reward: rewards.append(reward))
+        cut = evaluation.evaluate(env, RandomPolicy(env.spec, 0), 1, seed=3, max_ticks=17)
+    finally:
+        env.close()
+    assert full.lengths[0] > 17 and cut.cut == [True] and cut.lengths == [17]
+    assert cut.returns == [pytest.approx(sum(rewards))] and not cut.solved[0]
+
+
 def test_non_finite_settings_are_refused_before_anything_is_written(tmp_path, user_error):
     for setting, method in (("ppo.ent_coef=nan", PPO), ("dqn.lr=inf", DQN)):
         run_dir = tmp_path / setting
@@ -249,3 +283,8 @@ def test_a_resume_below_the_trained_samples_says_so(tmp_path, finished, capsys):
     err = capsys.readouterr().err
     assert f"already trained {trained} samples, more than the budget of 100" in err
     assert (run_dir / "done.json").exists() and (run_dir / "final.pt").exists()
+    for name in ("done.json", "final.pt"):  # a budget of exactly the trained samples
+        (run_dir / name).unlink()
+    assert main(["--resume", "--run-dir", str(run_dir), "--total-samples", str(trained)]) == 0
+    err = capsys.readouterr().err
+    assert f"already trained {trained} samples, which reaches the budget of {trained} " in err

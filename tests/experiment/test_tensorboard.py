@@ -4,6 +4,7 @@ option choices per agent at every iteration, the final policy's evaluation and t
 from __future__ import annotations
 
 import math
+import re
 
 import pytest
 from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
@@ -57,8 +58,12 @@ def test_after_training_announces_its_steps_and_shows_their_progress(tmp_path, c
     tiny = ["batch_ticks=30", "num_envs=1", "env.max_ticks=8", "ppo.epochs=1", "plot=false"]
     assert train_main([*args, *tiny, "eval_episodes=1"]) == 0
     err = capfd.readouterr().err
-    plan = "after training: evaluation of 2 x 1 episodes (greedy, sampled), a rollout video"
-    assert plan in err
+    plan = re.search(
+        r"after training \(estimated ~\d+s\): evaluation of 2 x 1 episodes \(greedy, sampled\), "
+        "a rollout video",
+        err,
+    )
+    assert plan, err
     for bar in ("evaluating eval/return_greedy", "video rollout.mp4", "TensorBoard GIF of"):
         assert bar in err, bar
-    assert err.index(plan) < err.index("video rollout.mp4") < err.index("GIF of")
+    assert plan.start() < err.index("video rollout.mp4") < err.index("GIF of")
