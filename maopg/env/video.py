@@ -473,6 +473,8 @@ def record_episode(
     title = video_title(task.name, env.strategy.value, policy_label, seed)
     composer = FrameComposer.of_env(env, title, camera_px)
     path = Path(path)
+    if path.suffix.lower() != ".mp4":  # before anything is written: ffmpeg would leave a stub
+        raise ValueError(f"video path {path}: must end in .mp4 (an H.264 MP4 is written)")
     path.parent.mkdir(parents=True, exist_ok=True)
     options = ["-"] * n
     started = np.zeros(n, dtype=bool)

@@ -350,10 +350,15 @@ def split_assignment(item: str) -> tuple[str, str]:
 
 def parse_task_settings(items: list[str]) -> dict[str, Any]:
     """``["max_ticks=100", "turtlebot_robot=diffbot"]`` → task config overrides, values parsed
-    as JSON where they are JSON (numbers, booleans, lists), else kept as strings."""
+    as JSON where they are JSON (numbers, booleans, lists), else kept as strings; ``inf`` and
+    ``nan`` are the floats they spell, as for the run's own float fields, so a task setting
+    refuses them as a non-finite number rather than as a string."""
     settings: dict[str, Any] = {}
     for item in items:
         key, text = split_assignment(item)
+        if text.strip().lower().lstrip("+-") in ("inf", "infinity", "nan"):
+            settings[key] = float(text)
+            continue
         try:
             settings[key] = json.loads(text)
         except json.JSONDecodeError:

@@ -94,7 +94,8 @@ def plot_task(
         style = LINE_STYLES[drawn % len(LINE_STYLES)]
         variants[family] = drawn + 1
         seeds = f"{len(group)} seed{'s' if len(group) > 1 else ''}"
-        ax.plot(x, mean, color=colour, ls=style, label=f"{label} ({seeds})", lw=2)
+        marker = "o" if len(x) == 1 else None  # a single point draws no line: show it
+        ax.plot(x, mean, color=colour, ls=style, marker=marker, label=f"{label} ({seeds})", lw=2)
         ax.fill_between(x, mean - std, mean + std, color=colour, alpha=0.2, lw=0)
     if metric == RETURN:
         for k, (name, level) in enumerate((references or {}).items()):

@@ -102,6 +102,11 @@ def parse_args(
         if saved.exists():
             load_plugins(_saved_plugins(saved))
             base = TrainConfig.load(saved).to_dict()
+            if method and method != base["method"]:  # else: its section would not fit
+                raise ValueError(
+                    f"--resume of {saved.parent}: the config differs from the saved one in "
+                    f"method (saved {base['method']!r}, given {method!r})"
+                )
     values = parse_overrides(args.overrides, method or base["method"])
     for key, flag in FLAGS.items():
         if key in named and key in values and values[key] != named[key]:

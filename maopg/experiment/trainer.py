@@ -146,13 +146,19 @@ def _open_run_dir(config: TrainConfig, *, overwrite: bool) -> WandbMirror | None
     run_dir = Path(config.run_dir)  # type: ignore[arg-type]
     if overwrite and (run_dir / CONFIG).exists():
         shutil.rmtree(run_dir)
+    new = not run_dir.exists()
     run_dir.mkdir(parents=True, exist_ok=True)
     for name in (CHECKPOINT, FINAL):
         remove_stale_temporaries(run_dir / name)
     mirror = None
     if config.logger == "wandb":
         name = f"{config.task}/{config.method}/seed{config.seed}"
-        mirror = WandbMirror(run_dir, config.wandb, name=name, config=config.flat())
+        try:
+            mirror = WandbMirror(run_dir, config.wandb, name=name, config=config.flat())
+        except ValueError:
+            if new:  # the failed start leaves no directory behind
+                shutil.rmtree(run_dir, ignore_errors=True)
+            raise
     config.save(run_dir / CONFIG)
     return mirror
 

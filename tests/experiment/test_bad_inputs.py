@@ -70,6 +70,9 @@ BAD_TRAIN = [
     (["env.image_size=48"], r"env\.image_size=48 is not a task override: .*image_size=84"),
     (["env.primitive=true"], r"env\.primitive=True is not a task override: .*end2end"),
     (["eval_episodes=-1"], r"eval_episodes must be >= 0, got -1"),
+    ([*WF, "env.cruise_altitude=50"], r"env\.cruise_altitude=50: no wall or obstacle reaches"),
+    (["env.tick_seconds=inf"], r"env\.tick_seconds must be a finite number, got inf"),
+    (["env.step_reward=nan"], r"env\.step_reward must be a finite number, got nan"),
     (["logger=mlflow"], r"logger must be one of \['tensorboard', 'wandb'\]"),
     (["wandb.mode=cloud"], r"wandb\.mode must be one of \['online', 'offline'\]"),
     (["wandb.projekt=x"], r"unknown config key 'wandb\.projekt'"),
@@ -97,6 +100,10 @@ def test_the_debug_flag_shows_the_traceback(tmp_path):
 BAD_EVAL = [
     (["evaluate", "--reference", "scripted", "--seed", "-1"], r"argument --seed: must be >= 0"),
     (["evaluate", "--reference", "scripted", "--episodes", "0"], r"--episodes: must be >= 1"),
+    (
+        ["video", "--reference", "scripted", "--out", "x.txt"],
+        r"video path x\.txt: must end in \.mp4",
+    ),
     (["reproduce", "--eval-episodes", "-3", "--dry-run"], r"--eval-episodes: must be >= 0"),
     (
         ["reproduce", "--reference-episodes", "0", "--dry-run"],
@@ -124,7 +131,7 @@ def test_a_bad_evaluation_setting_is_one_line_naming_it(tmp_path, capsys, args, 
     argv = [*args, *runs] if args[0] == "reproduce" else args
     assert eval_main(argv) == 2
     _one_line(capsys.readouterr().err, message)
-    assert not any(tmp_path.iterdir()) and not Path("x.mp4").exists()
+    assert not any(tmp_path.iterdir()) and not Path("x.mp4").exists() and not Path("x.txt").exists()
 
 
 def test_a_corrupt_saved_config_is_named(tmp_path, capsys):

@@ -119,6 +119,11 @@ def test_resume_checks_the_checkpoint_against_the_run(tmp_path, finished, user_e
     (run_dir / "done.json").unlink()
     resume = ["--resume", "--run-dir", str(run_dir), "--total-samples", "360"]
     checkpoint = run_dir / "checkpoint.pt"
+    user_error(
+        main,
+        [*resume, "--method", "mac-dqn"],
+        r"the config differs from the saved one in method \(saved 'async', given 'mac-dqn'\)",
+    )
     other = tmp_path / "other"
     _train(other, "--total-samples", "60", "hidden=32")
     shutil.copy(other / "checkpoint.pt", checkpoint)

@@ -98,11 +98,17 @@ class WaterFilling(SceneTask):
                 model, radius=self.vehicle.constants.radius, resolution=res, z_band=GROUND_BAND
             )
         )
-        cruise = GoalFieldPlanner(
-            occupancy_grid(
-                model, radius=config.drone_radius, resolution=res, z_band=(z - 0.2, z + 0.2)
+        band = (z - 0.2, z + 0.2)
+        try:
+            cruise_grid = occupancy_grid(
+                model, radius=config.drone_radius, resolution=res, z_band=band
             )
-        )
+        except ValueError:  # nothing at that height: not even the walls bound the room there
+            raise ValueError(
+                f"env.cruise_altitude={z:g}: no wall or obstacle reaches the drone's flight band "
+                f"({band[0]:g}-{band[1]:g} m), so the room has no bounds there; fly lower"
+            ) from None
+        cruise = GoalFieldPlanner(cruise_grid)
         kinds = [team.is_drone(a) for a in range(team.size)]
         self.planners = tuple(cruise if d else ground for d in kinds)
         self._step_length = tuple(
