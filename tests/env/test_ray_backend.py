@@ -25,8 +25,8 @@ from maopg.experiment.run_dir import TIMING_COLUMNS
 from maopg.experiment.train_cli import main
 
 ray = pytest.importorskip("ray")
-# One worker of a parallel test run (pytest -n, scripts/test.sh) runs them all, on one Ray.
-pytestmark = pytest.mark.xdist_group("ray")
+# A parallel run (scripts/test.sh: pytest -n auto --dist loadfile) keeps this module on one
+# worker: one Ray instance, and no other test's actors for the actor killer below to hit.
 
 CONFIG = EnvConfig(task="tool_delivery", strategy="continue", images=True)
 RUN = ["--seed", "1", "batch_ticks=100", "num_envs=3", "ppo.epochs=2", "progress=false"]
