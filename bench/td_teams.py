@@ -8,11 +8,11 @@ over ``--episodes`` episodes (strategy ``continue``), each at the default ``max_
 and, for ``all``, at 300 (sync-wait's rounds last as long as the slowest option).
 
 The random team's deliveries and failed passes per episode are printed too: they are the
-signal a learner starts from. A larger team tries many more passes that fail (-10 each) for
-few more deliveries (+100), so "never pass" (exactly -150) is the first thing a policy
-gradient learns. Both counts are read off each tick's reward,
-which is ``step + delivery * d + failed_pass * f`` with ``f`` below ``delivery / |failed_pass|``
-per tick (one pass per Fetch), so ``d`` and ``f`` follow from it uniquely.
+signal a learner starts from: a larger team tries many more passes that fail (-10 each) for
+no more deliveries (+100), which makes "never pass" (exactly -150) easy to learn first. Both
+counts are read off each tick's reward, ``step + delivery * d + failed_pass * f`` with ``f``
+below ``delivery / |failed_pass|`` per tick (one pass per Fetch), so ``d`` and ``f`` follow
+from it uniquely; each episode's counts are checked against its return.
 """
 
 from __future__ import annotations
