@@ -19,7 +19,10 @@ iterations, and in the checkpoint) and stores them per row; the update runs over
 
 from __future__ import annotations
 
+import functools
 import math
+from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
@@ -106,6 +109,68 @@ class Losses:
     clip_fraction: Tensor
 
 
+@dataclass(frozen=True)
+class _StepInputs:
+    """One minibatch's inputs to a PPO step: the two networks' forward passes, deferred so that
+    each runs on the thread that takes its gradient step, and the rows' recorded quantities."""
+
+    distribution: Callable[[], JointOptionDistribution]
+    values: Callable[[], Tensor]
+    joint: Tensor
+    old_log_prob: Tensor
+    old_value: Tensor
+    advantages: Tensor
+    targets: Tensor
+
+    def actor_terms(self, cfg: PPOConfig) -> dict[str, Tensor]:
+        """The clipped surrogate (as a loss), the entropy and the ratio's statistics."""
+        dist = self.distribution()
+        log_prob = dist.log_prob(self.joint)
+        log_ratio = log_prob - self.old_log_prob
+        ratio = log_ratio.exp()
+        advantages = self.advantages
+        surrogate = torch.min(
+            ratio * advantages, ratio.clamp(1.0 - cfg.clip, 1.0 + cfg.clip) * advantages
+        )
+        with torch.no_grad():
+            approx_kl = ((ratio - 1.0) - log_ratio).mean()
+            clip_fraction = ((ratio - 1.0).abs() > cfg.clip).float().mean()
+        return {
+            "policy_loss": -surrogate.mean(),
+            "entropy": dist.entropy().mean(),
+            "approx_kl": approx_kl,
+            "clip_fraction": clip_fraction,
+        }
+
+    def value_loss(self, cfg: PPOConfig) -> Tensor:
+        """The Huber loss of the values and of the values clipped around the old prediction,
+        whichever is larger (MAPPO's clipped value loss)."""
+        values, old_value, targets = self.values(), self.old_value, self.targets
+        clipped = old_value + (values - old_value).clamp(-cfg.value_clip, cfg.value_clip)
+        huber = nn.functional.huber_loss
+        return torch.max(
+            huber(values, targets, reduction="none", delta=cfg.huber_delta),
+            huber(clipped, targets, reduction="none", delta=cfg.huber_delta),
+        ).mean()
+
+    def losses(self, cfg: PPOConfig) -> Losses:
+        terms = self.actor_terms(cfg)
+        return Losses(
+            policy=terms["policy_loss"],
+            value=self.value_loss(cfg),
+            entropy=terms["entropy"],
+            approx_kl=terms["approx_kl"],
+            clip_fraction=terms["clip_fraction"],
+        )
+
+
+@functools.cache
+def _critic_thread() -> ThreadPoolExecutor:
+    """The one thread every :class:`MAPPO` update runs its critic's steps on (idle between
+    updates; the actor's steps run on the caller's thread)."""
+    return ThreadPoolExecutor(1, thread_name_prefix="maopg-critic")
+
+
 class MAPPO:
     """Clipped-surrogate updates of a conditional option policy and a centralized critic."""
 
@@ -129,9 +194,7 @@ class MAPPO:
 
     def losses(self, batch: TrainBatch, advantages: Tensor, targets: Tensor) -> Losses:
         """PPO losses of ``batch`` given its (normalised) advantages and critic-space targets."""
-        dist = self.policy.distribution(batch.obs, batch.choosing, batch.running, batch.available)
-        old = (batch.joint, batch.old_log_prob, batch.old_value)
-        return self._losses(dist, self.critic(batch.obs), *old, advantages, targets)
+        return self._step_inputs(batch, None, advantages, targets).losses(self.config)
 
     def chunk_losses(
         self, batch: TrainBatch, chunks: Tensor, advantages: Tensor, targets: Tensor
@@ -141,60 +204,76 @@ class MAPPO:
         each chunk from the states stored at its first row, resets masked inside it, and the
         gradient flows back through the chunk. ``advantages`` and ``targets`` are the whole
         batch's."""
+        return self._step_inputs(batch, chunks, advantages, targets).losses(self.config)
+
+    def _step_inputs(
+        self, batch: TrainBatch, chunks: Tensor | None, advantages: Tensor, targets: Tensor
+    ) -> _StepInputs:
+        """What one PPO step reads: ``batch``'s rows (feed-forward) or the decision points of
+        ``chunks`` (recurrent, with the whole batch's ``advantages`` and ``targets``)."""
+        policy, critic = self.policy, self.critic
+        if chunks is None:
+            obs = batch.obs
+            return _StepInputs(
+                lambda: policy.distribution(obs, batch.choosing, batch.running, batch.available),
+                lambda: critic(obs),
+                batch.joint,
+                batch.old_log_prob,
+                batch.old_value,
+                advantages,
+                targets,
+            )
         valid = chunks >= 0
         padded = torch.where(valid, chunks, chunks[:, :1]).flatten()
         rows = batch.rows(padded)
         starts = batch.starts[padded].view(valid.shape)  # type: ignore[index]
         first = chunks[:, 0]
-        dist = self.policy.sequence(
-            rows.obs,
-            rows.choosing,
-            rows.running,
-            rows.available,
-            batch.policy_state[first],  # type: ignore[index]
-            starts,
-            valid,
-        )
-        values = self.critic.sequence(rows.obs, batch.critic_state[first], starts, valid)  # type: ignore[index]
+        policy_state = batch.policy_state[first]  # type: ignore[index]
+        critic_state = batch.critic_state[first]  # type: ignore[index]
         kept = chunks[valid]
-        old = (batch.joint[kept], batch.old_log_prob[kept], batch.old_value[kept])
-        return self._losses(dist, values, *old, advantages[kept], targets[kept])
+        return _StepInputs(
+            lambda: policy.sequence(
+                rows.obs,
+                rows.choosing,
+                rows.running,
+                rows.available,
+                policy_state,
+                starts,
+                valid,
+            ),
+            lambda: critic.sequence(rows.obs, critic_state, starts, valid),
+            batch.joint[kept],
+            batch.old_log_prob[kept],
+            batch.old_value[kept],
+            advantages[kept],
+            targets[kept],
+        )
 
-    def _losses(
-        self,
-        dist: JointOptionDistribution,
-        values: Tensor,
-        joint: Tensor,
-        old_log_prob: Tensor,
-        old_value: Tensor,
-        advantages: Tensor,
-        targets: Tensor,
-    ) -> Losses:
-        """The clipped surrogate, the clipped Huber value loss and the statistics, from the
-        current ``dist`` and ``values`` of rows sampled with ``old_log_prob`` / ``old_value``."""
+    def _actor_step(self, inputs: _StepInputs) -> dict[str, float]:
+        """One gradient step of the policy on PPO's clipped surrogate plus the entropy bonus."""
         cfg = self.config
-        log_prob = dist.log_prob(joint)
-        log_ratio = log_prob - old_log_prob
-        ratio = log_ratio.exp()
-        surrogate = torch.min(
-            ratio * advantages, ratio.clamp(1.0 - cfg.clip, 1.0 + cfg.clip) * advantages
-        )
-        clipped = old_value + (values - old_value).clamp(-cfg.value_clip, cfg.value_clip)
-        huber = nn.functional.huber_loss
-        value_loss = torch.max(
-            huber(values, targets, reduction="none", delta=cfg.huber_delta),
-            huber(clipped, targets, reduction="none", delta=cfg.huber_delta),
-        )
-        with torch.no_grad():
-            approx_kl = ((ratio - 1.0) - log_ratio).mean()
-            clip_fraction = ((ratio - 1.0).abs() > cfg.clip).float().mean()
-        return Losses(
-            policy=-surrogate.mean(),
-            value=value_loss.mean(),
-            entropy=dist.entropy().mean(),
-            approx_kl=approx_kl,
-            clip_fraction=clip_fraction,
-        )
+        terms = inputs.actor_terms(cfg)
+        actor_loss = terms["policy_loss"] - cfg.ent_coef * terms["entropy"]
+        require_finite(actor_loss, "the actor's loss")
+        self.policy_opt.zero_grad()
+        actor_loss.backward()
+        norm = nn.utils.clip_grad_norm_(self.policy.parameters(), cfg.max_grad_norm)
+        require_finite(norm, "the actor's gradient norm")
+        self.policy_opt.step()
+        return {key: term.item() for key, term in terms.items()}
+
+    def _critic_step(self, inputs: _StepInputs) -> float:
+        """One gradient step of the critic on the clipped Huber value loss."""
+        cfg = self.config
+        value_loss = inputs.value_loss(cfg)
+        critic_loss = cfg.value_coef * value_loss
+        require_finite(critic_loss, "the critic's loss")
+        self.critic_opt.zero_grad()
+        critic_loss.backward()
+        norm = nn.utils.clip_grad_norm_(self.critic.parameters(), cfg.max_grad_norm)
+        require_finite(norm, "the critic's gradient norm")
+        self.critic_opt.step()
+        return value_loss.item()
 
     def update(self, batch: TrainBatch, generator: torch.Generator) -> dict[str, float]:
         """Run ``epochs`` passes of ``num_minibatches`` shuffled minibatches over ``batch``: of
@@ -205,6 +284,12 @@ class MAPPO:
         targets are normalised with statistics that include them. Returns mean statistics.
         A non-finite loss or gradient stops it before the step that would spread it, a
         non-finite weight after the epochs (:class:`~maopg.learner.base.NonFiniteError`).
+
+        The actor's and the critic's steps share no tensor that either writes (separate
+        networks, optimisers and losses; advantages and targets are fixed before the epochs), so
+        the critic's runs on a second thread while the actor's runs on this one: torch releases
+        the GIL inside its kernels, so the two overlap on two cores, and each computes exactly
+        what it would alone, in the same order — the same bits as one after the other.
         """
         cfg = self.config
         if self.value_norm is not None:
@@ -226,29 +311,20 @@ class MAPPO:
             order = torch.randperm(size, generator=generator).to(advantages.device)
             for index in order.tensor_split(num_minibatches):
                 if chunks is None:
-                    losses = self.losses(batch.rows(index), advantages[index], targets[index])
+                    inputs = self._step_inputs(
+                        batch.rows(index), None, advantages[index], targets[index]
+                    )
                 else:
-                    losses = self.chunk_losses(batch, chunks[index], advantages, targets)
-                actor_loss = losses.policy - cfg.ent_coef * losses.entropy
-                require_finite(actor_loss, "the actor's loss")
-                self.policy_opt.zero_grad()
-                actor_loss.backward()
-                norm = nn.utils.clip_grad_norm_(self.policy.parameters(), cfg.max_grad_norm)
-                require_finite(norm, "the actor's gradient norm")
-                self.policy_opt.step()
-                critic_loss = cfg.value_coef * losses.value
-                require_finite(critic_loss, "the critic's loss")
-                self.critic_opt.zero_grad()
-                critic_loss.backward()
-                norm = nn.utils.clip_grad_norm_(self.critic.parameters(), cfg.max_grad_norm)
-                require_finite(norm, "the critic's gradient norm")
-                self.critic_opt.step()
-
-                sums["policy_loss"] += losses.policy.item()
-                sums["value_loss"] += losses.value.item()
-                sums["entropy"] += losses.entropy.item()
-                sums["approx_kl"] += losses.approx_kl.item()
-                sums["clip_fraction"] += losses.clip_fraction.item()
+                    inputs = self._step_inputs(batch, chunks[index], advantages, targets)
+                critic_job = _critic_thread().submit(self._critic_step, inputs)
+                try:
+                    stats = self._actor_step(inputs)
+                except BaseException:
+                    critic_job.exception()  # let the critic's step end; the actor's error wins
+                    raise
+                stats["value_loss"] = critic_job.result()
+                for key, value in stats.items():
+                    sums[key] += value
                 updates += 1
         require_finite_parameters(self.policy, "the actor")
         require_finite_parameters(self.critic, "the critic")

@@ -1,5 +1,6 @@
 """Each distinct camera image is stored once per rollout and encoded once per update, with the
-same losses and gradients as encoding every decision point's images."""
+same losses and gradients as encoding every decision point's images; and the critic's steps of
+an update, on a thread of their own, change no bit of its outcome."""
 
 from __future__ import annotations
 
@@ -89,3 +90,21 @@ def test_a_minibatch_keeps_only_the_images_it_uses(rollout):
     part = batch.rows(torch.arange(0, len(batch), 4))
     assert part.obs.images.shape[0] == int(torch.unique(batch.obs.image_index[::4]).numel())
     assert torch.equal(part.obs.dense_images(), batch.obs.dense_images()[::4])
+
+
+@pytest.mark.parametrize("kind", ["centralized", "partial"])
+def test_the_critic_on_its_own_thread_changes_no_bit_of_the_update(rollout, update_both_ways, kind):
+    spec, rollout = rollout
+    advantages = torch.randn(rollout.num_steps, 3, generator=torch.Generator().manual_seed(2))
+    batch = rollout.training_batch(advantages.numpy(), advantages.numpy() + 1.0)
+
+    def make() -> MAPPO:
+        torch.manual_seed(3)
+        policy = POLICIES[kind](spec, hidden=32, cnn_features=16)
+        critic = CentralCritic(spec, hidden=32, cnn_features=16)
+        return MAPPO(policy, critic, ValueNorm(), PPOConfig(epochs=3, num_minibatches=2))
+
+    threads, inline = update_both_ways(make, batch)
+    assert threads["stats"] == inline["stats"]
+    for name, value in threads["weights"].items():
+        assert torch.equal(value, inline["weights"][name]), name

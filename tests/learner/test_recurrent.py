@@ -73,7 +73,9 @@ def _learner(envs: SeededVectorEnv, builder) -> MAPPOLearner:
 
 
 @pytest.mark.parametrize("builder", [centralized_policy, partial_policy, autoregressive_policy])
-def test_the_chunked_forward_equals_the_step_by_step_forward_of_collection(builder):
+def test_the_chunked_forward_equals_the_step_by_step_forward_of_collection(
+    builder, update_both_ways
+):
     envs = SeededVectorEnv(
         EnvConfig(task="tool_delivery", strategy="continue", overrides=SHORT), num_envs=2, seed=7
     )
@@ -117,7 +119,12 @@ def test_the_chunked_forward_equals_the_step_by_step_forward_of_collection(build
     torch.testing.assert_close(log_prob, batch.old_log_prob[kept], rtol=1e-5, atol=1e-6)
     torch.testing.assert_close(values, batch.old_value[kept], rtol=1e-5, atol=1e-6)
 
-    # The PPO update runs on these chunks, and backpropagation reaches both GRUs.
+    # The PPO update runs on these chunks, the critic's steps on their own thread (the same bits
+    # as on this one), and backpropagation reaches both GRUs.
+    threads, inline = update_both_ways(lambda: _learner(envs, builder).ppo, batch)
+    assert threads["stats"] == inline["stats"]
+    for name, value in threads["weights"].items():
+        assert torch.equal(value, inline["weights"][name]), name
     memories = (learner.policy.memory, learner.critic.memory)
     before = [{k: v.clone() for k, v in m.state_dict().items()} for m in memories]
     stats = learner.ppo.update(batch, learner.setup.update_gen)
