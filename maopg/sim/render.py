@@ -5,6 +5,13 @@ frame, so observation cameras render with both off; videos keep the nicer settin
 one GL context per camera is slower than re-pointing a single renderer, and the output array
 is preallocated so a batch of observations costs no allocation.
 
+GL calls are serialised across threads (:data:`GL_LOCK`): Mesa's llvmpipe (22.3.6, Debian 12)
+crashed with SIGSEGV in ``swrast_dri.so`` when two threads rendered at once, each into its own
+context: now and then in training runs on the ``threads`` backend (Tool Delivery and Water
+Filling RGB) and in a stress loop of ``ThreadVectorEnv`` steps, each time with both threads in
+``mjr_render``. Physics and scene updates (``mj_step``, ``mjv_updateScene``) still overlap:
+only context creation, the draw and the pixel read-back hold the lock.
+
 A renderer still open when the interpreter exits (an error unwound past its owner's ``close``)
 is closed by an exit hook that runs before MuJoCo's own, which terminates the EGL display:
 freed later, each context would print two ``EGLError`` tracebacks under the real error.
@@ -15,6 +22,7 @@ from __future__ import annotations
 import atexit
 import functools
 import os
+import threading
 import weakref
 from collections.abc import Sequence
 
@@ -23,6 +31,9 @@ import numpy as np
 
 import maopg  # noqa: F401  (sets MUJOCO_GL=egl before mujoco renders)
 from maopg.sim.egl_check import gl_problem
+
+GL_LOCK = threading.RLock()
+"""Held by every GL call of this module (see the module docstring for why)."""
 
 
 def _fit_offscreen_buffer(model: mujoco.MjModel, height: int, width: int) -> None:
@@ -50,7 +61,8 @@ def _make_renderer(
     saved = int(model.vis.quality.offsamples)
     model.vis.quality.offsamples = offsamples  # read once, when the GL context is made
     try:
-        renderer = mujoco.Renderer(model, height, width)
+        with GL_LOCK:
+            renderer = mujoco.Renderer(model, height, width)
     except Exception as exc:  # MuJoCo and PyOpenGL raise several types, by backend
         raise RenderError(f"{failed}: {exc}") from exc
     finally:
@@ -116,13 +128,15 @@ class CameraRenderer:
         renderer = self._renderer
         for i, camera in enumerate(cameras):
             renderer.update_scene(data, camera=camera)
-            renderer.render(out=out[i])
+            with GL_LOCK:
+                renderer.render(out=out[i])
         return out
 
     def close(self) -> None:
         """Free the GL context now (at interpreter exit EGL teardown may already be gone)."""
         if self._renderer is not None:
-            self._renderer.close()
+            with GL_LOCK:
+                self._renderer.close()
             self._renderer = None
 
     def __enter__(self) -> CameraRenderer:

@@ -1,6 +1,10 @@
-"""Headless camera rendering on real scenes: shapes, content, buffers, sizes, projection."""
+"""Headless camera rendering on real scenes: shapes, content, buffers, sizes, projection,
+threads."""
 
 from __future__ import annotations  # noqa: I001  (maopg must come before mujoco)
+
+import threading
+import time
 
 import maopg  # noqa: F401  (sets MUJOCO_GL=egl before mujoco is imported)
 import numpy as np
@@ -105,3 +109,48 @@ def test_a_robot_is_drawn_where_its_body_projects(td_scene) -> None:
     near = [np.linalg.norm(changed - spot, axis=1) for spot in spots]
     assert all(d.min() < 4 for d in near), "each position shows the robot at its projection"
     assert (np.minimum(*near) < 15).mean() > 0.95, "and nothing changed elsewhere"
+
+
+def test_threads_never_draw_at_the_same_time_and_each_gets_its_own_images(td_scene) -> None:
+    """Two threads render their own scenes at once (as the ``threads`` backend does): the GL
+    draws never overlap (Mesa's llvmpipe crashed when they did), and each thread's images are
+    the ones its scene gives rendered alone."""
+    scenes = [td_scene(), td_scene(tb0=(2.0, 1.0))]
+    alone = []
+    for scene in scenes:
+        with CameraRenderer(scene.model, 36, 36) as renderer:
+            alone.append(renderer.render(scene.data, CAMERAS[:3]))
+    inside, most = [0], [0]
+    count = threading.Lock()
+
+    def work(k: int, start: threading.Barrier, images: list) -> None:
+        with CameraRenderer(scenes[k].model, 36, 36) as renderer:
+            draw = renderer._renderer.render
+
+            def counted(**kwargs):
+                with count:
+                    inside[0] += 1
+                    most[0] = max(most[0], inside[0])
+                try:
+                    time.sleep(0.002)  # widen the window in which an overlap would show
+                    return draw(**kwargs)
+                finally:
+                    with count:
+                        inside[0] -= 1
+
+            renderer._renderer.render = counted
+            start.wait()
+            for _ in range(20):
+                images.append(renderer.render(scenes[k].data, CAMERAS[:3]))
+
+    start = threading.Barrier(2)
+    images: list[list] = [[], []]
+    threads = [threading.Thread(target=work, args=(k, start, images[k])) for k in range(2)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    assert most[0] == 1
+    for k in range(2):
+        assert len(images[k]) == 20
+        assert all(np.array_equal(image, alone[k]) for image in images[k])
