@@ -66,20 +66,6 @@ NOT_RUN_FIELDS = ("env_overrides", "learner", *RUN_SECTIONS)
 """TrainConfig fields that are no ``key=value`` setting of their own."""
 
 
-DEFAULT_WORKERS = 2
-"""Worker processes of the ``processes`` backend when it is the default."""
-
-
-def default_backend(config: TrainConfig) -> str:
-    """``processes`` for camera observations or ``num_workers`` > 1, else ``threads``.
-
-    Measured with ``bench/backends.py`` on 2 cores: from state vectors, threads step the
-    environments fastest (no pipe to cross); with cameras, spawned workers are faster, because
-    GL draws are serialised across the threads of one process (:data:`maopg.sim.render.GL_LOCK`)
-    while each worker process renders on its own."""
-    return "processes" if config.num_workers > 1 or config.images else "threads"
-
-
 @dataclass
 class TrainConfig(Settings):
     """Everything a training run depends on. A resolved config fully determines the run. Each
@@ -104,7 +90,7 @@ class TrainConfig(Settings):
     (this process, stepped in parallel while ``mj_step`` and rendering release the GIL;
     ``bench/backends.py`` measures the gain), ``processes`` (``spawn`` workers) or ``ray``
     (Ray actors, on this machine or a cluster: the ``ray.*`` settings); default
-    :func:`default_backend`. All give the same rollouts."""
+    ``processes`` when ``num_workers`` > 1, else ``threads``. All give the same rollouts."""
     num_workers: int = setting(0, ge=0)
     """Worker processes of the ``processes`` backend, actors of ``ray`` (0 = one), threads of
     ``threads`` (at least 2)."""
@@ -196,9 +182,7 @@ class TrainConfig(Settings):
                 f"got {type(cfg.learner).__name__}"
             )
         if cfg.backend is None:
-            cfg.backend = default_backend(cfg)
-            if cfg.backend == "processes":
-                cfg.num_workers = max(cfg.num_workers, DEFAULT_WORKERS)
+            cfg.backend = "processes" if cfg.num_workers > 1 else "threads"
         if cfg.run_dir is None:
             cfg.run_dir = str(Path("runs") / cfg.task / cfg.method / f"seed{cfg.seed}")
         cfg.device = resolve_device(cfg.device)
