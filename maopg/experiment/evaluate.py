@@ -104,6 +104,7 @@ def evaluate(
         unit="episode",
         disable=not progress,
         leave=False,
+        mininterval=0,  # an episode is a coarse step: show each one, however fast it ran
     )
     results = [run_episode(env, counted, seed=j, max_ticks=max_ticks) for j in seeds]
     return EvalResult(
