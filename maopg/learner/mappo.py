@@ -14,7 +14,7 @@ With ``ppo.recurrent`` both networks carry a GRU state over the decision points
 (:mod:`maopg.policy.memory`): the collection loop keeps each environment's states (across
 iterations, and in the checkpoint) and stores them per row; the update runs over chunks of
 ``ppo.chunk_length`` consecutive decision points re-run from their stored states
-(:meth:`MAPPO.chunk_losses`), the rest of PPO unchanged.
+(:meth:`MAPPO._step_inputs`), the rest of PPO unchanged.
 """
 
 from __future__ import annotations
@@ -196,21 +196,14 @@ class MAPPO:
         """PPO losses of ``batch`` given its (normalised) advantages and critic-space targets."""
         return self._step_inputs(batch, None, advantages, targets).losses(self.config)
 
-    def chunk_losses(
-        self, batch: TrainBatch, chunks: Tensor, advantages: Tensor, targets: Tensor
-    ) -> Losses:
-        """PPO losses of the decision points of ``chunks`` (``int64 [C, L]`` rows of ``batch``,
-        ``-1`` padding; :meth:`TrainBatch.chunks`) for a recurrent policy and critic: both re-run
-        each chunk from the states stored at its first row, resets masked inside it, and the
-        gradient flows back through the chunk. ``advantages`` and ``targets`` are the whole
-        batch's."""
-        return self._step_inputs(batch, chunks, advantages, targets).losses(self.config)
-
     def _step_inputs(
         self, batch: TrainBatch, chunks: Tensor | None, advantages: Tensor, targets: Tensor
     ) -> _StepInputs:
         """What one PPO step reads: ``batch``'s rows (feed-forward) or the decision points of
-        ``chunks`` (recurrent, with the whole batch's ``advantages`` and ``targets``)."""
+        ``chunks`` (``int64 [C, L]`` rows of ``batch``, ``-1`` padding; :meth:`TrainBatch.chunks`)
+        for a recurrent policy and critic, with the whole batch's ``advantages`` and
+        ``targets``: both re-run each chunk from the states stored at its first row, resets
+        masked inside it, and the gradient flows back through the chunk."""
         policy, critic = self.policy, self.critic
         if chunks is None:
             obs = batch.obs
@@ -254,26 +247,25 @@ class MAPPO:
         cfg = self.config
         terms = inputs.actor_terms(cfg)
         actor_loss = terms["policy_loss"] - cfg.ent_coef * terms["entropy"]
-        require_finite(actor_loss, "the actor's loss")
-        self.policy_opt.zero_grad()
-        actor_loss.backward()
-        norm = nn.utils.clip_grad_norm_(self.policy.parameters(), cfg.max_grad_norm)
-        require_finite(norm, "the actor's gradient norm")
-        self.policy_opt.step()
+        self._descend(actor_loss, self.policy, self.policy_opt, "actor")
         return {key: term.item() for key, term in terms.items()}
 
     def _critic_step(self, inputs: _StepInputs) -> float:
         """One gradient step of the critic on the clipped Huber value loss."""
         cfg = self.config
         value_loss = inputs.value_loss(cfg)
-        critic_loss = cfg.value_coef * value_loss
-        require_finite(critic_loss, "the critic's loss")
-        self.critic_opt.zero_grad()
-        critic_loss.backward()
-        norm = nn.utils.clip_grad_norm_(self.critic.parameters(), cfg.max_grad_norm)
-        require_finite(norm, "the critic's gradient norm")
-        self.critic_opt.step()
+        self._descend(cfg.value_coef * value_loss, self.critic, self.critic_opt, "critic")
         return value_loss.item()
+
+    def _descend(self, loss: Tensor, network: nn.Module, optimizer: Adam, name: str) -> None:
+        """One Adam step of ``network`` on ``loss`` with its gradient norm clipped; a non-finite
+        loss or gradient stops it before the step (:func:`require_finite`)."""
+        require_finite(loss, f"the {name}'s loss")
+        optimizer.zero_grad()
+        loss.backward()
+        norm = nn.utils.clip_grad_norm_(network.parameters(), self.config.max_grad_norm)
+        require_finite(norm, f"the {name}'s gradient norm")
+        optimizer.step()
 
     def update(self, batch: TrainBatch, generator: torch.Generator) -> dict[str, float]:
         """Run ``epochs`` passes of ``num_minibatches`` shuffled minibatches over ``batch``: of
