@@ -398,11 +398,13 @@ def train(config: TrainConfig, *, resume: bool = False, overwrite: bool = False)
         raise
     finally:
         envs.close()
+    failed = True  # the W&B run ends failed unless the after-training steps finish
     try:
         after_training(run_dir, mirror, estimate=after)
+        failed = False
     finally:
         if mirror is not None:
-            mirror.close()
+            mirror.close(failed=failed)
     write_done(run_dir, iterations=iteration, samples=samples, wall_time=wall_time)
     return run_dir
 

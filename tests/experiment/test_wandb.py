@@ -13,6 +13,7 @@ from pathlib import Path
 
 import pytest
 
+from maopg.experiment import trainer
 from maopg.experiment.run_dir import TIMING_COLUMNS
 from maopg.experiment.train_cli import main
 
@@ -171,3 +172,30 @@ def test_wandb_without_an_account_is_one_line_and_leaves_no_run(tmp_path):
     assert done.returncode == 2, done.stderr
     assert "logger=wandb: No API key configured" in done.stderr, done.stderr
     assert "Traceback" not in done.stderr and not run_dir.exists()
+
+
+def _exit_codes(run_dir: Path) -> list[int]:
+    return [
+        record.exit.exit_code
+        for path in sorted(run_dir.glob("wandb/offline-run-*/run-*.wandb"))
+        for record in _records(path)
+        if record.WhichOneof("record_type") == "exit"
+    ]
+
+
+def test_a_run_whose_after_training_steps_fail_ends_its_wandb_run_failed(tmp_path, monkeypatch):
+    """Training finished but its evaluation (or video, or plot) raised: W&B must not show the
+    run as a success, and the run stays unfinished (no done.json) so a rerun repeats them."""
+
+    def broken(*args: object, **kwargs: object) -> None:
+        raise RuntimeError("the evaluation broke")
+
+    monkeypatch.setattr(trainer, "after_training", broken)
+    run_dir = tmp_path / "run"
+    with pytest.raises(RuntimeError, match="the evaluation broke"):
+        main([*RUN, *QUIET, "--total-samples", "60", "--run-dir", str(run_dir), "--debug"])
+    assert _exit_codes(run_dir) == [1]
+    assert not (run_dir / "done.json").exists()
+    monkeypatch.undo()
+    assert main([*RUN, *QUIET, "--total-samples", "60", "--run-dir", str(run_dir), "--resume"]) == 0
+    assert _exit_codes(run_dir) == [1, 0]
