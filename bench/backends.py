@@ -10,9 +10,11 @@ tick counts of every step). Figures are low-level ticks per second, median over 
 ``local`` steps the environments one after another, ``threads`` on 2 threads of this process
 (``mj_step`` and rendering release the GIL), ``processes`` in 2 ``spawn``ed workers
 (observations cross a pipe), ``ray`` in 2 Ray actors of a local Ray instance started once for
-the whole benchmark (observations cross Ray's object store), and ``ray×1`` in one actor holding
-all 4 environments: it steps them one after another like ``local``, so its ratio to ``local`` is
-Ray's own overhead at the same number of environments (issue 16: at most 15%). Without Ray
+the whole benchmark (observations cross each actor's TCP connection, ``ray.direct``), and
+``ray×1`` in one actor holding all 4 environments: it steps them one after another like
+``local``, so its ratio to ``local`` is the Ray backend's own overhead at the same number of
+environments (issue 16: at most 15%). ``ray×1 calls`` is the same with ``ray.direct=false``:
+a Ray actor call per option step, observations through Ray's object store. Without Ray
 installed (``pip install 'maopg[ray]'``) the Ray columns are left out.
 """
 
@@ -30,15 +32,29 @@ from maopg.env.rollout import RandomPolicy
 from maopg.env.vector import EnvConfig, SeededVectorEnv
 from maopg.experiment.sysinfo import markdown
 
-WORKERS = {"local": 0, "threads": 2, "processes": 2, "ray": 2, "ray×1": 1}
-"""Column → workers (threads, processes, actors)."""
+COLUMNS: dict[str, tuple[str, int, dict[str, bool]]] = {
+    "local": ("local", 0, {}),
+    "threads": ("threads", 2, {}),
+    "processes": ("processes", 2, {}),
+    "ray": ("ray", 2, {}),
+    "ray×1": ("ray", 1, {}),
+    "ray×1 calls": ("ray", 1, {"direct": False}),
+}
+"""Column → (backend, workers: threads, processes or actors, the backend's options)."""
 CASES = (("tool_delivery", False), ("tool_delivery", True), ("water_filling", True))
 
 
 def collect(config: EnvConfig, column: str, steps: int) -> tuple[float, list]:
     """(ticks per second, the rollout's trace) of ``steps`` lockstep option steps."""
-    backend, workers = column.partition("×")[0], WORKERS[column]
-    envs = SeededVectorEnv(config, num_envs=4, seed=0, backend=backend, num_workers=workers)
+    backend, workers, options = COLUMNS[column]
+    envs = SeededVectorEnv(
+        config,
+        num_envs=4,
+        seed=0,
+        backend=backend,
+        num_workers=workers,
+        backend_options=options,
+    )
     try:
         envs.reset()
         policy, ticks, trace = RandomPolicy(envs.spec, 0), 0, []
@@ -58,7 +74,7 @@ def main() -> None:
     parser.add_argument("--rounds", type=int, default=3)
     args = parser.parse_args()
     conditions = markdown()
-    columns = [c for c in WORKERS if ray_available() or not c.startswith("ray")]
+    columns = [c for c in COLUMNS if ray_available() or not c.startswith("ray")]
     if ray_available():
         import ray
 
@@ -81,7 +97,8 @@ def main() -> None:
     print(conditions)
     print(
         f"- 4 environments, {args.steps} option steps, {args.rounds} rounds; 2 threads, "
-        "processes or Ray actors (`ray×1`: one actor with all 4 environments)\n"
+        "processes or Ray actors (`ray×1`: one actor with all 4 environments; `calls`: "
+        "`ray.direct=false`)\n"
     )
     others = columns[1:]
     print(f"| task | observations | local ticks/s | {' | '.join(others)} | identical rollouts |")

@@ -9,9 +9,9 @@ Measured on this machine (medians over ``--rounds``):
 - ``t_env``: seconds one actor takes per lockstep option step of its environments, per
   environment (``backend=local``, random options: the physics, options and cameras);
 - ``d``: low-level ticks per environment per lockstep step (the option durations);
-- ``δ(k)``: Ray's own cost per step for an actor with ``k`` environments (``ray×1`` minus
-  ``local`` at the same environments, on one machine: serialisation, the object store, the
-  actor call);
+- ``δ(k)``: the Ray backend's own cost per step for an actor with ``k`` environments
+  (``ray×1`` minus ``local`` at the same environments, on one machine: pickling and the
+  exchange over the actor's connection, ``ray.direct``);
 - ``b``: bytes of one environment's answer to a step (what crosses the network);
 - ``a(B)``: the learner's acting cost per lockstep step for ``B`` environments (policy and
   critic forward passes in ``collect``), fitted as ``a0 + a1·B``;

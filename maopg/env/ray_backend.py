@@ -22,24 +22,33 @@ deterministic given seed and options — checks that it arrived at the same deci
 the curve is the uninterrupted one. A worker that keeps dying (more than
 ``ray.max_replacements`` times in a run) ends the run with an error instead of looping.
 
-**Cost.** Each lockstep option step is one remote call per actor: the joint options go out, the
-next decision points (observations, images) come back in the reply. ``bench/scale_out.py``
-measures that cost on one machine (its δ, in BENCHMARKS.md); across machines add one network
-round trip and the observations' transfer per option step. An
-actor stepping ``k`` environments spreads that over ``k`` environments' physics, so give each
-actor as many environments as it takes for physics to dominate the round trip (docs/DESIGN.md
-§9 works the numbers).
+**Cost.** Each lockstep option step is one exchange per actor: the joint options go out, the
+next decision points (observations, images) come back. Ray places, starts, watches and replaces
+the actors, but the exchanges themselves travel over a TCP connection from this process to each
+actor (``ray.direct``, on by default; the actor checks a per-run key before it reads a pickle):
+one round trip and the answer's bytes. A Ray actor call instead goes through Ray's scheduling
+and object-store bookkeeping, which cost milliseconds per call on a small machine
+(``bench/backends.py`` measures both). An actor stepping ``k`` environments spreads the round
+trip over ``k`` environments' physics, so across machines give each actor as many environments
+as it takes for physics to dominate it (``bench/scale_out.py`` measures the terms;
+docs/DESIGN.md §9 works the numbers). A driver connected through Ray Client (``ray://``) may
+not reach the actors' machines, and uses actor calls.
 """
 
 from __future__ import annotations
 
+import contextlib
+import hmac
 import importlib.util
 import logging
 import math
 import os
+import secrets
 import socket
+import traceback
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from multiprocessing.connection import Connection
 from typing import Any, ClassVar
 
 import numpy as np
@@ -80,6 +89,9 @@ class RayOptions(Settings):
     """Logical CPUs each actor reserves (Ray places actors by them)."""
     max_replacements: int = setting(8, ge=0)
     """Dead actors replaced in one run before giving up."""
+    direct: bool = True
+    """Exchange option steps with the actors over direct TCP connections (module docstring);
+    ``false``: one Ray actor call per step."""
 
     def validate(self) -> None:
         super().validate()
@@ -120,9 +132,57 @@ class EnvActor:
         """The actor's process id (for tests that kill it)."""
         return os.getpid()
 
+    def listen(self, key: bytes) -> tuple[str, int]:
+        """Open the port :meth:`serve` will answer on; the address the driver connects to."""
+        import ray
+
+        self._key = key
+        self._server = socket.create_server((ray.util.get_node_ip_address(), 0))
+        return self._server.getsockname()[:2]
+
+    def serve(self) -> None:
+        """Answer the driver over its connection until it closes it: requests ``(name,
+        args)``, answers ``(True, result)`` or ``(False, traceback)``. One request at a time,
+        all on this thread (an EGL context is current on one thread only). A connection that
+        does not open with the run's key is closed unread, and the actor waits for the next."""
+        with self._server:
+            while True:
+                conn, offered = _connection(self._server.accept()[0]), b""
+                with contextlib.suppress(EOFError, OSError):
+                    if conn.poll(CONNECT_TIMEOUT_S):  # a silent stranger does not hold the port
+                        offered = conn.recv_bytes(len(self._key) + 1)
+                if hmac.compare_digest(offered, self._key):
+                    break
+                conn.close()
+        with conn:
+            while True:
+                try:
+                    name, args = conn.recv()
+                except EOFError:
+                    return
+                try:
+                    result = self.pid() if name == "pid" else getattr(self.envs, name)(*args)
+                    answer = (True, result)
+                except Exception:  # the driver raises it, with this traceback
+                    answer = (False, traceback.format_exc())
+                conn.send(answer)
+
 
 CONNECT_TIMEOUT_S = 10.0
-"""How long to wait for a cluster address to answer before calling it unreachable."""
+"""How long to wait for a cluster address, or an actor's port, to answer before calling it
+unreachable."""
+LIVENESS_S = 1.0
+"""How often a driver waiting on an actor's answer asks Ray whether the actor is still alive
+(a lost machine may not close the connection)."""
+
+
+def _connection(sock: socket.socket) -> Connection:
+    """A pickling connection over ``sock``, without Nagle's delay: a request or answer is sent
+    as its length and then its bytes, and the second write must not wait for the first's
+    acknowledgement."""
+    sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+    sock.settimeout(None)
+    return Connection(sock.detach())
 
 
 def _check_reachable(address: str) -> None:
@@ -185,7 +245,14 @@ class RayVectorEnv(SplitVectorEnv):
             num_cpus=self.options.cpus_per_actor, max_restarts=0
         )
         self._build_args = (config, run_seed, registrations(config.task), env_plugins())
-        self.actors = [self._spawn(group) for group in self.groups]
+        self._key = secrets.token_bytes(32)
+        self.actors: list[Any] = [None] * len(self.groups)
+        self.links: list[Connection | None] = [None] * len(self.groups)
+        """Actor ``k``'s direct connection, or ``None`` where it is reached by actor calls."""
+        self.serving: list[Any] = [None] * len(self.groups)
+        """Actor ``k``'s :meth:`EnvActor.serve` task: it fails when the actor dies."""
+        for k in range(len(self.groups)):
+            self._spawn(k)
         # What each environment's current episode is made of, to rebuild it on a new actor.
         self.seeds: list[int | None] = [None] * num_envs
         self.actions: list[list[np.ndarray]] = [[] for _ in range(num_envs)]
@@ -193,9 +260,26 @@ class RayVectorEnv(SplitVectorEnv):
         """Each environment's latest point, which a replacement must arrive at again."""
         self.replacements = 0
 
-    def _spawn(self, group: list[int]) -> Any:
+    def _spawn(self, k: int) -> None:
+        """Start actor ``k`` and, with ``ray.direct``, connect to it."""
+        import ray
+
         config, run_seed, registered, plugins = self._build_args
-        return self._remote.remote(config, group, run_seed, registered, plugins)
+        actor = self._remote.remote(config, self.groups[k], run_seed, registered, plugins)
+        self.actors[k], self.links[k], self.serving[k] = actor, None, None
+        if not self.options.direct or ray.util.client.ray.is_connected():
+            return
+        address = ray.get(actor.listen.remote(self._key))
+        self.serving[k] = actor.serve.remote()
+        try:
+            sock = socket.create_connection(address, timeout=CONNECT_TIMEOUT_S)
+        except OSError as err:
+            raise ValueError(
+                f"ray.direct=true: cannot connect to Ray actor {k} at {address[0]}:"
+                f"{address[1]} ({err}); ray.direct=false steps the actors by Ray actor calls"
+            ) from None
+        self.links[k] = _connection(sock)
+        self.links[k].send_bytes(self._key)
 
     # ------------------------------------------------------------------ calls
     def _split(self, call: str, *per_env_args: Sequence[Any]) -> list[Any]:
@@ -207,11 +291,37 @@ class RayVectorEnv(SplitVectorEnv):
         self._record(call, per_env_args, results)
         return results
 
-    def _submit(self, k: int, call: str, args: tuple) -> list[Any]:
-        """Ask actor ``k`` for ``call``: one object reference per environment of its group."""
+    def _submit(self, k: int, call: str, args: tuple) -> list[Any] | None:
+        """Ask actor ``k`` for ``call``: over its connection (``None``: the answer is read from
+        it), or by an actor call with one object reference per environment of its group."""
+        link = self.links[k]
+        if link is not None:
+            with contextlib.suppress(OSError):  # the actor is gone: reading finds out how
+                link.send((call, args))
+            return None
         n = len(self.groups[k])
         refs = self.actors[k].call.options(num_returns=n).remote(call, *args)
         return [refs] if n == 1 else list(refs)
+
+    def _get(self, k: int, future: list[Any] | None) -> Any:
+        """The answer to :meth:`_submit`; ``RayActorError`` if actor ``k`` died."""
+        import ray
+
+        if future is not None:
+            return ray.get(future)
+        link = self.links[k]
+        assert link is not None
+        try:
+            while not link.poll(LIVENESS_S):
+                if ray.wait([self.serving[k]], timeout=0)[0]:
+                    raise EOFError  # the serve task ended: its outcome says why, below
+            ok, answer = link.recv()
+        except (EOFError, OSError):
+            ray.get(self.serving[k])  # a dead actor raises RayActorError here
+            raise RuntimeError(f"Ray actor {k} closed its connection") from None
+        if not ok:
+            raise RuntimeError(f"environment actor {k} failed:\n{answer}")
+        return answer
 
     def _result(self, k: int, future: Any, again: Callable[[], Any]) -> Any:
         """Actor ``k``'s answer; if the actor died, replace it and ask ``again()``."""
@@ -219,7 +329,7 @@ class RayVectorEnv(SplitVectorEnv):
 
         while True:
             try:
-                return ray.get(future)
+                return self._get(k, future)
             except ray.exceptions.RayActorError as err:
                 self._replace(k, err)
                 future = again()
@@ -262,14 +372,15 @@ class RayVectorEnv(SplitVectorEnv):
             self.replacements += 1
             reason = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
             log.warning("Ray actor %d (environments %s) died; replacing it: %s", k, group, reason)
+            self._disconnect(k)
             ray.kill(self.actors[k], no_restart=True)
-            self.actors[k] = self._spawn(group)
-            if self.seeds[group[0]] is None:
-                return  # not reset yet: nothing to rebuild
-            seeds = [self.seeds[e] for e in group]
-            actions = [self.actions[e] for e in group]
             try:
-                points = ray.get(self._submit(k, "replay", (seeds, actions)))
+                self._spawn(k)
+                if self.seeds[group[0]] is None:
+                    return  # not reset yet: nothing to rebuild
+                seeds = [self.seeds[e] for e in group]
+                actions = [self.actions[e] for e in group]
+                points = self._get(k, self._submit(k, "replay", (seeds, actions)))
             except ray.exceptions.RayActorError as again:
                 err = again
                 continue
@@ -281,21 +392,35 @@ class RayVectorEnv(SplitVectorEnv):
                 )
             return
 
+    def _disconnect(self, k: int) -> None:
+        link, self.links[k] = self.links[k], None
+        if link is not None:
+            link.close()
+
+    def _ask(self, k: int, name: str) -> Any:
+        """A question for actor ``k`` alone (not one per environment)."""
+        if self.links[k] is not None:
+            return self._result(k, self._submit(k, name, ()), lambda: self._submit(k, name, ()))
+
+        def call() -> Any:
+            return getattr(self.actors[k], name).remote()
+
+        return self._result(k, call(), call)
+
     def spec(self) -> EnvSpec:
-        return self._result(0, self.actors[0].spec.remote(), lambda: self.actors[0].spec.remote())
+        return self._ask(0, "spec")
 
     def pids(self) -> list[int]:
         """The actors' process ids (a test kills one to check the replacement)."""
-        import ray
-
-        return ray.get([a.pid.remote() for a in self.actors])
+        return [self._ask(k, "pid") for k in range(len(self.actors))]
 
     def close(self) -> None:
         import ray
 
         if not ray.is_initialized():
             return
-        for actor in self.actors:
+        for k, actor in enumerate(self.actors):
+            self._disconnect(k)
             ray.kill(actor, no_restart=True)
         if self._owns_ray:
             ray.shutdown()

@@ -12,6 +12,7 @@ import csv
 import logging
 import os
 import signal
+import socket
 import threading
 import time
 from pathlib import Path
@@ -54,8 +55,10 @@ def _trace(envs: SeededVectorEnv, steps: int, kill_at: int | None = None) -> lis
     return trace
 
 
-def _envs(backend: str, workers: int = 0) -> SeededVectorEnv:
-    return SeededVectorEnv(CONFIG, num_envs=3, seed=5, backend=backend, num_workers=workers)
+def _envs(backend: str, workers: int = 0, **options: bool) -> SeededVectorEnv:
+    return SeededVectorEnv(
+        CONFIG, num_envs=3, seed=5, backend=backend, num_workers=workers, backend_options=options
+    )
 
 
 def _rows(run_dir: Path) -> list[dict[str, str]]:
@@ -74,14 +77,61 @@ def local_trace() -> list[list[str]]:
         envs.close()
 
 
-@pytest.mark.parametrize("actors", [1, 2])
-def test_ray_rollouts_equal_local_ones(local_trace, actors):
-    envs = _envs("ray", actors)
+@pytest.mark.parametrize(("actors", "direct"), [(1, True), (2, True), (2, False)])
+def test_ray_rollouts_equal_local_ones(local_trace, actors, direct):
+    """Over direct connections (the default) and over Ray actor calls alike."""
+    envs = _envs("ray", actors, direct=direct)
     try:
         assert len(envs.backend.actors) == actors
+        assert all((link is not None) == direct for link in envs.backend.links)
         assert _trace(envs, 40) == local_trace
     finally:
         envs.close()
+
+
+class _Planted:
+    """A pickle that, if loaded, leaves a file behind: what a stranger could send."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+
+    def __reduce__(self):
+        return (Path.touch, (self.path,))
+
+
+def _connect(address: tuple[str, int]):
+    from multiprocessing.connection import Connection
+
+    sock = socket.create_connection(address, timeout=10)
+    sock.setblocking(True)
+    return Connection(sock.detach())
+
+
+def test_an_actor_drops_a_connection_without_the_run_key_unread(tmp_path):
+    """The actor's port takes pickles only after the run's key: a stranger's pickle is not
+    loaded (no code of theirs runs), and the driver, with the key, is served after them."""
+    from maopg.env.ray_backend import EnvActor
+    from maopg.env.vector_base import registrations
+
+    key = b"k" * 32
+    actor = ray.remote(EnvActor).remote(CONFIG, [0], 5, registrations(CONFIG.task), [])
+    try:
+        address = ray.get(actor.listen.remote(key))
+        serving = actor.serve.remote()
+        stranger = _connect(address)
+        stranger.send_bytes(b"x" * 32)
+        stranger.send(_Planted(tmp_path / "planted"))
+        driver = _connect(address)
+        driver.send_bytes(key)
+        driver.send(("pid", ()))
+        ok, pid = driver.recv()
+        assert ok and pid != os.getpid()  # answered by the actor, which serves one at a time
+        assert not (tmp_path / "planted").exists()
+        driver.close()
+        assert ray.get(serving, timeout=60) is None
+        stranger.close()
+    finally:
+        ray.kill(actor)
 
 
 def test_a_killed_actor_is_replaced_and_its_step_redone(local_trace, caplog):
@@ -168,6 +218,7 @@ def _status(argv: list[str]) -> int:
         ("ray.cpus_per_actor=0", r"ray\.cpus_per_actor must be > 0"),
         ("ray.max_replacements=-1", r"ray\.max_replacements must be >= 0"),
         ("ray.adress=auto", r"unknown config key 'ray\.adress'"),
+        ("ray.direct=maybe", r"ray\.direct expected bool, got 'maybe'"),
         ("ray.address=nowhere", r"ray\.address='nowhere': expected HOST:PORT"),
         ("ray.address=127.0.0.1:1", r"ray\.address='127\.0\.0\.1:1': no Ray cluster answers"),
     ],
