@@ -147,14 +147,11 @@ class EnvActor:
         does not open with the run's key is closed unread, and the actor waits for the next."""
         with self._server:
             while True:
-                conn, offered = _connection(self._server.accept()[0]), b""
-                with contextlib.suppress(EOFError, OSError):
-                    if conn.poll(CONNECT_TIMEOUT_S):  # a silent stranger does not hold the port
-                        offered = conn.recv_bytes(len(self._key) + 1)
-                if hmac.compare_digest(offered, self._key):
+                sock = self._server.accept()[0]
+                if hmac.compare_digest(_read_key(sock, len(self._key)), self._key):
                     break
-                conn.close()
-        with conn:
+                sock.close()
+        with _connection(sock) as conn:
             while True:
                 try:
                     name, args = conn.recv()
@@ -176,11 +173,28 @@ LIVENESS_S = 1.0
 (a lost machine may not close the connection)."""
 
 
+def _read_key(sock: socket.socket, size: int) -> bytes:
+    """The first ``size`` raw bytes a connection sends (``b""`` if they do not all come within
+    ``CONNECT_TIMEOUT_S``): a stranger who sends a few bytes and falls silent does not hold
+    the port."""
+    sock.settimeout(CONNECT_TIMEOUT_S)
+    offered = b""
+    with contextlib.suppress(OSError):
+        while len(offered) < size and (chunk := sock.recv(size - len(offered))):
+            offered += chunk
+    return offered
+
+
 def _connection(sock: socket.socket) -> Connection:
-    """A pickling connection over ``sock``, without Nagle's delay: a request or answer is sent
-    as its length and then its bytes, and the second write must not wait for the first's
-    acknowledgement."""
+    """A pickling connection over ``sock``: without Nagle's delay (a message is sent as its
+    length and then its bytes, and the second write must not wait for the first's
+    acknowledgement), and with TCP keep-alive probes, so that a read from a machine that
+    vanished mid-answer fails within about half a minute instead of waiting forever."""
     sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_KEEPALIVE, 1)
+    for option, value in (("TCP_KEEPIDLE", 10), ("TCP_KEEPINTVL", 5), ("TCP_KEEPCNT", 3)):
+        if hasattr(socket, option):  # Linux; elsewhere the system's defaults
+            sock.setsockopt(socket.IPPROTO_TCP, getattr(socket, option), value)
     sock.settimeout(None)
     return Connection(sock.detach())
 
@@ -253,6 +267,12 @@ class RayVectorEnv(SplitVectorEnv):
         """Actor ``k``'s :meth:`EnvActor.serve` task: it fails when the actor dies."""
         for k in range(len(self.groups)):
             self._spawn(k)
+        try:  # after every actor is started, so that they build their environments in parallel
+            for k in range(len(self.groups)):
+                self._connect(k)
+        except BaseException:
+            self.close()
+            raise
         # What each environment's current episode is made of, to rebuild it on a new actor.
         self.seeds: list[int | None] = [None] * num_envs
         self.actions: list[list[np.ndarray]] = [[] for _ in range(num_envs)]
@@ -261,16 +281,19 @@ class RayVectorEnv(SplitVectorEnv):
         self.replacements = 0
 
     def _spawn(self, k: int) -> None:
-        """Start actor ``k`` and, with ``ray.direct``, connect to it."""
-        import ray
-
+        """Start actor ``k`` (it builds its environments in the background)."""
         config, run_seed, registered, plugins = self._build_args
         actor = self._remote.remote(config, self.groups[k], run_seed, registered, plugins)
         self.actors[k], self.links[k], self.serving[k] = actor, None, None
+
+    def _connect(self, k: int) -> None:
+        """With ``ray.direct``, open the connection to actor ``k``."""
+        import ray
+
         if not self.options.direct or ray.util.client.ray.is_connected():
             return
-        address = ray.get(actor.listen.remote(self._key))
-        self.serving[k] = actor.serve.remote()
+        address = ray.get(self.actors[k].listen.remote(self._key))
+        self.serving[k] = self.actors[k].serve.remote()
         try:
             sock = socket.create_connection(address, timeout=CONNECT_TIMEOUT_S)
         except OSError as err:
@@ -278,8 +301,8 @@ class RayVectorEnv(SplitVectorEnv):
                 f"ray.direct=true: cannot connect to Ray actor {k} at {address[0]}:"
                 f"{address[1]} ({err}); ray.direct=false steps the actors by Ray actor calls"
             ) from None
+        sock.sendall(self._key)
         self.links[k] = _connection(sock)
-        self.links[k].send_bytes(self._key)
 
     # ------------------------------------------------------------------ calls
     def _split(self, call: str, *per_env_args: Sequence[Any]) -> list[Any]:
@@ -317,8 +340,11 @@ class RayVectorEnv(SplitVectorEnv):
                     raise EOFError  # the serve task ended: its outcome says why, below
             ok, answer = link.recv()
         except (EOFError, OSError):
-            ray.get(self.serving[k])  # a dead actor raises RayActorError here
-            raise RuntimeError(f"Ray actor {k} closed its connection") from None
+            # A dead actor raises RayActorError here. A connection lost to a live actor (a
+            # reset on the network) is treated the same: the actor is killed and replaced.
+            if ray.wait([self.serving[k]], timeout=CONNECT_TIMEOUT_S)[0]:
+                ray.get(self.serving[k])
+            raise ray.exceptions.RayActorError() from None
         if not ok:
             raise RuntimeError(f"environment actor {k} failed:\n{answer}")
         return answer
@@ -376,6 +402,7 @@ class RayVectorEnv(SplitVectorEnv):
             ray.kill(self.actors[k], no_restart=True)
             try:
                 self._spawn(k)
+                self._connect(k)
                 if self.seeds[group[0]] is None:
                     return  # not reset yet: nothing to rebuild
                 seeds = [self.seeds[e] for e in group]
@@ -417,10 +444,11 @@ class RayVectorEnv(SplitVectorEnv):
     def close(self) -> None:
         import ray
 
+        for k in range(len(self.actors)):
+            self._disconnect(k)
         if not ray.is_initialized():
             return
-        for k, actor in enumerate(self.actors):
-            self._disconnect(k)
+        for actor in self.actors:
             ray.kill(actor, no_restart=True)
         if self._owns_ray:
             ray.shutdown()

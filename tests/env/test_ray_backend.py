@@ -99,17 +99,20 @@ class _Planted:
         return (Path.touch, (self.path,))
 
 
-def _connect(address: tuple[str, int]):
+def _connect(address: tuple[str, int], opening: bytes):
+    """A connection to an actor's port that first sends ``opening`` as raw bytes."""
     from multiprocessing.connection import Connection
 
     sock = socket.create_connection(address, timeout=10)
+    sock.sendall(opening)
     sock.setblocking(True)
     return Connection(sock.detach())
 
 
 def test_an_actor_drops_a_connection_without_the_run_key_unread(tmp_path):
     """The actor's port takes pickles only after the run's key: a stranger's pickle is not
-    loaded (no code of theirs runs), and the driver, with the key, is served after them."""
+    loaded (no code of theirs runs), a stranger who falls silent does not hold the port, and
+    the driver, with the key, is served after them."""
     from maopg.env.ray_backend import EnvActor
     from maopg.env.vector_base import registrations
 
@@ -118,18 +121,19 @@ def test_an_actor_drops_a_connection_without_the_run_key_unread(tmp_path):
     try:
         address = ray.get(actor.listen.remote(key))
         serving = actor.serve.remote()
-        stranger = _connect(address)
-        stranger.send_bytes(b"x" * 32)
+        stranger = _connect(address, b"x" * 32)
         stranger.send(_Planted(tmp_path / "planted"))
-        driver = _connect(address)
-        driver.send_bytes(key)
+        silent = _connect(address, b"k" * 3)
+        driver = _connect(address, key)
         driver.send(("pid", ()))
+        assert driver.poll(60), "the driver was not served"
         ok, pid = driver.recv()
         assert ok and pid != os.getpid()  # answered by the actor, which serves one at a time
         assert not (tmp_path / "planted").exists()
         driver.close()
         assert ray.get(serving, timeout=60) is None
         stranger.close()
+        silent.close()
     finally:
         ray.kill(actor)
 
