@@ -327,11 +327,27 @@ class RayVectorEnv(SplitVectorEnv):
         return [refs] if n == 1 else list(refs)
 
     def _get(self, k: int, future: list[Any] | None) -> Any:
-        """The answer to :meth:`_submit`; ``RayActorError`` if actor ``k`` died."""
+        """The answer to :meth:`_submit`; ``RayActorError`` if actor ``k`` died, and a
+        ``RuntimeError`` with the actor's traceback if the environments raised."""
         import ray
 
         if future is not None:
-            return ray.get(future)
+            try:
+                return ray.get(future)
+            except ray.exceptions.RayTaskError as err:
+                if isinstance(err, ray.exceptions.RayActorError):
+                    raise  # a death: _result replaces the actor
+                ok, answer = False, err
+        else:
+            ok, answer = self._read(k)
+        if not ok:
+            raise RuntimeError(f"environment actor {k} failed:\n{answer}")
+        return answer
+
+    def _read(self, k: int) -> tuple[bool, Any]:
+        """Actor ``k``'s answer from its connection, watching that the actor stays alive."""
+        import ray
+
         link = self.links[k]
         assert link is not None
         try:
@@ -345,9 +361,7 @@ class RayVectorEnv(SplitVectorEnv):
             if ray.wait([self.serving[k]], timeout=CONNECT_TIMEOUT_S)[0]:
                 ray.get(self.serving[k])
             raise ray.exceptions.RayActorError() from None
-        if not ok:
-            raise RuntimeError(f"environment actor {k} failed:\n{answer}")
-        return answer
+        return ok, answer
 
     def _result(self, k: int, future: Any, again: Callable[[], Any]) -> Any:
         """Actor ``k``'s answer; if the actor died, replace it and ask ``again()``."""
@@ -359,8 +373,6 @@ class RayVectorEnv(SplitVectorEnv):
             except ray.exceptions.RayActorError as err:
                 self._replace(k, err)
                 future = again()
-            except ray.exceptions.RayTaskError as err:
-                raise RuntimeError(f"environment actor {k} failed:\n{err}") from None
 
     def _record(self, call: str, per_env_args: Sequence[Sequence[Any]], results: list) -> None:
         """Keep each environment's episode log in step with what the actors just did."""
