@@ -30,6 +30,7 @@ import mujoco
 import numpy as np
 
 import maopg  # noqa: F401  (sets MUJOCO_GL=egl before mujoco renders)
+from maopg.sim.culling import cull_outside_view
 from maopg.sim.egl_check import gl_problem
 
 GL_LOCK = threading.RLock()
@@ -98,14 +99,16 @@ class CameraRenderer:
     """RGB observations from named/indexed cameras: uint8 ``[N, H, W, 3]``.
 
     ``fast=True`` (default) is the observation setting: no shadows, no reflections, no
-    multisampling. ``fast=False`` keeps MuJoCo's defaults (shadows, offsamples from the model,
-    4 unless the MJCF says otherwise), for benchmarks and pretty pictures.
+    multisampling, and the geoms out of the camera's view are not drawn (the same pixels,
+    :mod:`maopg.sim.culling`). ``fast=False`` keeps MuJoCo's defaults (shadows, offsamples from
+    the model, 4 unless the MJCF says otherwise), for benchmarks and pretty pictures.
     """
 
     def __init__(
         self, model: mujoco.MjModel, height: int = 64, width: int = 64, *, fast: bool = True
     ) -> None:
         self.height, self.width = height, width
+        self._cull = fast  # a geom out of view may cast a shadow or a reflection into it
         offsamples = 0 if fast else int(model.vis.quality.offsamples)
         self._renderer = _make_renderer(
             model, height, width, shadows=not fast, offsamples=offsamples
@@ -128,6 +131,8 @@ class CameraRenderer:
         renderer = self._renderer
         for i, camera in enumerate(cameras):
             renderer.update_scene(data, camera=camera)
+            if self._cull:
+                cull_outside_view(renderer.scene, self.width / self.height)
             with GL_LOCK:
                 renderer.render(out=out[i])
         return out
