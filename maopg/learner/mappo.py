@@ -455,7 +455,8 @@ class MAPPOLearner(Learner):
         advances as it acts, the critic's as it values each point once (that value is the
         bootstrap of the step before and the baseline of the step after).
         """
-        policy, critic, device = self.policy, self.critic, self.device
+        critic, device = self.critic, self.device
+        value_on_thread = torch.no_grad()(critic.step)  # grad mode is per thread
         rollout = Rollout(num_envs=envs.num_envs)
         obs = ObsBatch.from_decision_points(envs.points)
         on_device = obs.to(device)
@@ -463,28 +464,31 @@ class MAPPOLearner(Learner):
         policy_in, critic_in = self.memory["policy"], self.memory["critic"]
         values, critic_out = critic.step(on_device, critic_in, starts.to(device))
         values = values.cpu()
+        acting = self._act(envs, on_device, policy_in, starts)
         ticks = 0
         while ticks < self.setup.batch_ticks:
-            choosing, running, available = stack_conditions(envs.points)
-            dist, policy_out = policy.step(
-                on_device,
-                choosing.to(device),
-                running.to(device),
-                available.to(device),
-                policy_in,
-                starts.to(device),
-            )
+            (choosing, running, available), dist, policy_out = acting
             joint = dist.sample(self.setup.sample_gen)
             log_prob = dist.log_prob(joint).cpu()
             joint = joint.cpu()
             results = envs.step(joint.numpy())
             outcomes = [r.outcome for r in results]
+            ticks += int(sum(o.duration for o in outcomes))
             next_obs = ObsBatch.from_decision_points(envs.points)
             next_on_device = next_obs.to(device)
             next_starts = episode_starts(envs.points)
-            next_values, next_critic_out = critic.step(
-                next_on_device, critic_out, next_starts.to(device)
+            # The critic values the new points on its own thread while the policy decides there
+            # (as in the update: each computes what it would alone, so the same bits).
+            valuing = _critic_thread().submit(
+                value_on_thread, next_on_device, critic_out, next_starts.to(device)
             )
+            try:
+                if ticks < self.setup.batch_ticks:
+                    acting = self._act(envs, next_on_device, policy_out, next_starts)
+            except BaseException:
+                valuing.exception()  # let the critic's forward end; the policy's error wins
+                raise
+            next_values, next_critic_out = valuing.result()
             next_values = next_values.cpu()
             bootstrap = next_values.clone()
             truncated = [e for e, o in enumerate(outcomes) if o.truncated]
@@ -517,11 +521,22 @@ class MAPPOLearner(Learner):
             rollout.episodes += [
                 dict(r.final.info["episode"]) for r in results if r.final is not None
             ]
-            ticks += int(sum(o.duration for o in outcomes))
             obs, on_device, values, starts = next_obs, next_on_device, next_values, next_starts
             policy_in, critic_in, critic_out = policy_out, critic_out, next_critic_out
         self.memory = {"policy": policy_in, "critic": critic_in}
         return rollout
+
+    def _act(
+        self, envs: SeededVectorEnv, obs: ObsBatch, state: Tensor | None, starts: Tensor
+    ) -> tuple[tuple[Tensor, Tensor, Tensor], JointOptionDistribution, Tensor | None]:
+        """The conditions at the environments' current points (``choosing``, ``running``,
+        ``available``), the policy's conditional there and its state after them."""
+        conditions = stack_conditions(envs.points)
+        device = self.device
+        dist, state = self.policy.step(
+            obs, *(c.to(device) for c in conditions), state, starts.to(device)
+        )
+        return conditions, dist, state
 
     def final_state(self) -> dict[str, Any]:
         return {

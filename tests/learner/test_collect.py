@@ -7,7 +7,7 @@ import torch
 
 from maopg.env.vector import EnvConfig, SeededVectorEnv
 from maopg.learner import LearnerSetup, MAPPOLearner, PPOConfig
-from maopg.policy import CentralizedPolicy
+from maopg.policy import CentralizedPolicy, ObsBatch
 
 CONFIG = EnvConfig(task="tool_delivery", strategy="continue")
 
@@ -93,3 +93,23 @@ def test_state_dict_replays_every_environment_exactly(envs, backend):
             twin.load_state_dict(state)
     finally:
         twin.close()
+
+
+def test_values_taken_beside_the_policy_are_the_critics_own_to_the_bit(envs):
+    """The critic values each new point on its own thread while the policy decides there;
+    what the rollout keeps is exactly what the critic computes alone, one point at a time,
+    with no autograd graph (grad mode is per thread), and each bootstrap is the next row's
+    value unless that environment's episode was truncated between them."""
+    envs.reset()
+    learner = _learner(envs, 600)  # past every environment's first 150-tick episode
+    rollout = learner.collect(envs)
+    with torch.no_grad():
+        for t in range(rollout.num_steps):
+            value = learner.critic.value(ObsBatch(vectors=rollout.vectors[t]))
+            assert torch.equal(rollout.value[t], value)
+            assert not rollout.value[t].requires_grad and not rollout.next_value[t].requires_grad
+    truncated = rollout.grid("truncated")
+    assert truncated.any() and not truncated.all()  # both cases below occur
+    for t in range(rollout.num_steps - 1):
+        kept = ~truncated[t]
+        assert torch.equal(rollout.next_value[t][kept], rollout.value[t + 1][kept])
