@@ -34,6 +34,11 @@ class DecisionView(Protocol):
         """``int64 [N]``: each agent's running (or just ended) option."""
 
     @property
+    def available(self) -> Sequence[np.ndarray]:
+        """Per-agent ``bool`` masks over its options: what it may choose now (all of them
+        unless the task masks, as Tool Delivery's ``mask_options``)."""
+
+    @property
     def ticks(self) -> int:
         """Ticks since reset."""
 

@@ -27,7 +27,8 @@ def scripted_policy(config: Config) -> ScriptedPolicy:
     tool more on the desk (cut short under ``any``) is done again. And where every agent chooses
     at once, a Fetch with nothing to do while another Fetch starts a search or a pass "searches"
     a tool it already found (a no-op as long as that) instead of Wait, which under ``any`` would
-    cut the other's activity short every tick.
+    cut the other's activity short every tick. With ``mask_options`` that search is masked (it
+    cannot find a tool) and the Fetch waits.
     """
     if config.primitive:
         raise ValueError("the scripted Tool Delivery policy drives options, not primitive actions")
@@ -102,8 +103,10 @@ def scripted_policy(config: Config) -> ScriptedPolicy:
         active = any(point.choosing[a] and f not in idle for f, a in enumerate(fetch_agents))
         sync = bool(point.choosing.all()) and point.ticks > 0
         for f in idle:
+            a = fetch_agents[f]
             no_op = sync and active and found[f] > 0  # its first tool is found: finds nothing
-            joint[fetch_agents[f]] = searches[f][0] if no_op else wait[f]
+            no_op = no_op and point.available[a][searches[f][0]]  # masked: it cannot find one
+            joint[a] = searches[f][0] if no_op else wait[f]
         return joint
 
     return act
