@@ -89,10 +89,8 @@ class TrainConfig(Settings):
     """Where the environments run: ``local`` (this process, one after another), ``threads``
     (this process, stepped in parallel while ``mj_step`` and rendering release the GIL;
     ``bench/backends.py`` measures the gain), ``processes`` (``spawn`` workers) or ``ray``
-    (Ray actors, on this machine or a cluster: the ``ray.*`` settings). Default: ``processes``
-    when ``num_workers`` > 1 or the run renders camera observations (then with 2 workers: the
-    ``threads`` backend draws one frame at a time, see :mod:`maopg.sim.render`), else
-    ``threads``. All give the same rollouts."""
+    (Ray actors, on this machine or a cluster: the ``ray.*`` settings); default
+    ``processes`` when ``num_workers`` > 1, else ``threads``. All give the same rollouts."""
     num_workers: int = setting(0, ge=0)
     """Worker processes of the ``processes`` backend, actors of ``ray`` (0 = one), threads of
     ``threads`` (at least 2)."""
@@ -184,7 +182,7 @@ class TrainConfig(Settings):
                 f"got {type(cfg.learner).__name__}"
             )
         if cfg.backend is None:
-            cfg.backend, cfg.num_workers = _default_backend(cfg)
+            cfg.backend = "processes" if cfg.num_workers > 1 else "threads"
         if cfg.run_dir is None:
             cfg.run_dir = str(Path("runs") / cfg.task / cfg.method / f"seed{cfg.seed}")
         cfg.device = resolve_device(cfg.device)
@@ -281,21 +279,6 @@ class TrainConfig(Settings):
             return TrainConfig.from_dict(data)
         except ValueError as err:
             raise ValueError(f"{path}: {err}") from None
-
-
-def _default_backend(config: TrainConfig) -> tuple[str, int]:
-    """(backend, num_workers) when no backend was given.
-
-    Camera observations go to 2 spawned workers: each process draws its own frames, where the
-    ``threads`` backend draws one at a time under the GL lock (Mesa's llvmpipe crashed on
-    concurrent draws, :mod:`maopg.sim.render`). From state, threads are as fast and start
-    without spawning (BENCHMARKS.md, "Vector-environment backends"), which short runs feel.
-    """
-    if config.num_workers > 1:
-        return "processes", config.num_workers
-    if config.images and config.num_workers == 0 and config.num_envs > 1:
-        return "processes", 2
-    return "threads", config.num_workers
 
 
 def resolve_device(device: str) -> str:
