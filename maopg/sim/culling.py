@@ -12,7 +12,7 @@ Only frames without shadows and reflections may be culled: a geom out of view ca
 a shadow into it or be mirrored by a reflective floor. The lights, fog, haze and skybox do
 not depend on the other geoms. The frames are the same to the last bit
 (``tests/sim/test_culling.py`` renders both ways over Tool Delivery's and Water Filling's
-episodes); ``bench/sim_bench.py`` measures the time saved.
+episodes); ``bench/culling.py`` measures the time saved.
 """
 
 from __future__ import annotations
