@@ -33,15 +33,17 @@ def cull_outside_view(scene: mujoco.MjvScene, aspect: float) -> int:
 
     The frustum is the one ``mjr_render`` draws with: the average of the scene's two GL
     cameras (they differ only in stereo, which is left alone), with square pixels, so its half
-    width at the near plane is ``aspect`` times its half height. A geom is culled when its
-    bounding sphere (``geom_rbound`` about the geom's centre; zero, i.e. unknown or unbounded,
-    for planes, height fields and decorations, which are always drawn) lies wholly behind the
-    near plane or beyond one of the four side planes. The far plane is not tested.
+    width at the near plane is ``aspect`` times its half height. Stereo, orthographic cameras
+    and cameras given by their intrinsics (a frustum width of their own) are drawn whole. A
+    geom is culled when its bounding sphere (``geom_rbound`` about the geom's centre; zero,
+    i.e. unknown or unbounded, for planes, height fields and decorations, which are always
+    drawn) lies wholly behind the near plane or beyond one of the four side planes. The far
+    plane is not tested.
     """
     if scene.stereo != mujoco.mjtStereo.mjSTEREO_NONE or scene.ngeom == 0:
         return 0
     camera = mujoco.mjv_averageCamera(scene.camera[0], scene.camera[1])
-    if camera.orthographic:
+    if camera.orthographic or camera.frustum_width:  # an intrinsics camera: drawn whole
         return 0
     geoms = scene.geoms[: scene.ngeom]
     radius = np.fromiter((g.modelrbound for g in geoms), dtype=np.float64, count=len(geoms))
@@ -54,7 +56,7 @@ def cull_outside_view(scene: mujoco.MjvScene, aspect: float) -> int:
     x, y, z = ((centres - np.asarray(camera.pos, np.float64)) @ axes).T
     r = radius[bounded] * SAFETY + 1e-3
     near = camera.frustum_near
-    half_width = camera.frustum_width or 0.5 * aspect * (camera.frustum_top - camera.frustum_bottom)
+    half_width = 0.5 * aspect * (camera.frustum_top - camera.frustum_bottom)
     outside = z < near - r
     # Each side plane passes through the eye and one edge of the near rectangle, at offset
     # ``edge`` along its axis; ``sign`` points out of the view. A point (coord, z) is that far
