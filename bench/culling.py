@@ -18,7 +18,7 @@ import maopg  # noqa: F401  (sets MUJOCO_GL=egl before mujoco is imported)
 import numpy as np
 
 from maopg.env import make_env
-from maopg.env.rollout import RandomPolicy
+from maopg.env.rollout import RandomPolicy, decision_points
 from maopg.experiment.sysinfo import markdown
 from maopg.sim.culling import cull_outside_view
 from maopg.sim.render import _make_renderer
@@ -31,13 +31,9 @@ def measure(task: str, steps: int, size: int) -> dict[str, float]:
     scene = env.task.scene
     cameras = [robot.camera_id for robot in env.task.agent_robots]
     renderer = _make_renderer(scene.model, size, size, shadows=False, offsamples=0)
-    policy, point = RandomPolicy(env.spec, seed=0), env.reset()
     whole, culled, skipped, same = [], [], [], 0
     try:
-        for _ in range(steps):
-            point = env.step(policy(point))
-            if point.terminated or point.truncated:
-                point = env.reset()
+        for _ in decision_points(env, RandomPolicy(env.spec, seed=0), steps):
             for camera in cameras:
                 start = time.perf_counter()
                 renderer.update_scene(scene.data, camera=camera)

@@ -7,7 +7,7 @@ A task's scripted policy is declared in its registry entry and built from the ta
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -125,6 +125,17 @@ def run_episode(
     return EpisodeResult(
         episode["return"], episode["ticks"], episode["solved"], len(rewards), rewards
     )
+
+
+def decision_points(env: OptionEnv, policy: ReferencePolicy, count: int) -> Iterator[DecisionPoint]:
+    """``count`` decision points of ``env`` under ``policy``, episode after episode (an ended
+    episode is followed by a reset): a stream of states to measure or check something on."""
+    point = env.reset()
+    for _ in range(count):
+        point = env.step(policy(point))
+        if point.done:
+            point = env.reset()
+        yield point
 
 
 def evaluate_reference(

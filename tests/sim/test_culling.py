@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from maopg.env import make_env
-from maopg.env.rollout import RandomPolicy
+from maopg.env.rollout import RandomPolicy, decision_points
 from maopg.sim.culling import cull_outside_view
 from maopg.sim.render import CameraRenderer, _make_renderer
 
@@ -23,13 +23,9 @@ def _frames_both_ways(task: str, height: int, width: int, aspect_error: float = 
     scene = env.task.scene
     cameras = [robot.camera_id for robot in env.task.agent_robots]
     renderer = _make_renderer(scene.model, height, width, shadows=False, offsamples=0)
-    policy, point = RandomPolicy(env.spec, seed=3), env.reset()
     whole, culled, counts = [], [], []
     try:
-        for _ in range(STEPS):
-            point = env.step(policy(point))
-            if point.terminated or point.truncated:
-                point = env.reset()
+        for _ in decision_points(env, RandomPolicy(env.spec, seed=3), STEPS):
             for camera in cameras:
                 renderer.update_scene(scene.data, camera=camera)
                 whole.append(renderer.render().copy())
