@@ -3,9 +3,10 @@
 ``mjr_render`` hands every geom of the scene to OpenGL, which drops what lies outside the
 view only after it has transformed and lit all of its vertices. On a software renderer
 (Mesa's llvmpipe, what a headless CPU machine has) that per-vertex work is most of a small
-frame's cost, and a robot's camera sees few of the scene's geoms: from Water Filling's robot
-cameras about 17 of 63 are in view. A geom whose bounding sphere lies wholly outside the view
-frustum cannot colour a pixel, so it is retyped ``mjGEOM_NONE``, which ``mjr_render`` skips;
+frame's cost, and a robot's camera sees few of the scene's geoms: of Water Filling's 66 about
+47 are out of a robot camera's view (``bench/culling.py`` prints both tasks'). A geom whose
+bounding sphere lies wholly outside the view frustum cannot colour a pixel, so it is retyped
+``mjGEOM_NONE``, which ``mjr_render`` skips;
 ``mjv_updateScene`` rewrites every geom before the next frame, so nothing has to be restored.
 
 Only frames without shadows and reflections may be culled: a geom out of view can still cast

@@ -62,7 +62,8 @@ def test_camera_renderer_culls_observations_but_not_frames_with_shadows() -> Non
     try:
         with CameraRenderer(scene.model, 64, 64) as fast:
             image = fast.render(scene.data, [camera])[0]
-            skipped = sum(g.type == mujoco.mjtGeom.mjGEOM_NONE for g in fast._renderer.scene.geoms)
+            drawn = fast._renderer.scene.geoms[: fast._renderer.scene.ngeom]
+            skipped = sum(g.type == mujoco.mjtGeom.mjGEOM_NONE for g in drawn)
         with CameraRenderer(scene.model, 64, 64, fast=False) as nice:
             nice.render(scene.data, [camera])
             drawn = nice._renderer.scene.geoms[: nice._renderer.scene.ngeom]
