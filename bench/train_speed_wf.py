@@ -1,10 +1,12 @@
 """Wall-clock of training on Water Filling from RGB: 200K samples of `async` in ≤ 15 min?
 
-Run: ``.venv/bin/python bench/train_speed_wf.py [--run-dir runs/bench/train_speed_wf]``. Target
-(issue 16): 200K samples of `async` (64 px cameras on both robots, command-line defaults, seed
-0) in ≤ 15 minutes on 2 cores, with a learning curve within the noise of the committed grid's
-(results/runs/water_filling/async, seeds 0-2, trained by the code before the image bank and the
-threaded backend: 26.0, 35.2 and 26.0 min).
+Run: ``.venv/bin/python bench/train_speed_wf.py [--precision bf16] [--run-dir DIR]``. Target
+(issue 16): 200K samples of `async` (64 px cameras on both robots, command-line defaults but
+``precision``, seed 0) in ≤ 15 minutes on 2 cores, with a learning curve within the noise of the
+committed grid's (results/runs/water_filling/async, seeds 0-2, trained by the code before the
+image bank and the threaded backend: 26.0, 35.2 and 26.0 min, in ``fp32``). ``--precision
+bf16`` runs the CNNs in bfloat16 (the ``precision`` setting), which is where most of an
+update's time goes; the conditions list whether this CPU has bf16 instructions.
 
 A short run cannot give the verdict: cameras render and the CNN runs at every decision point,
 and the policy makes more decisions as it learns (about 350-400 per 1,000 ticks untrained,
@@ -30,6 +32,7 @@ from maopg.experiment.run_dir import read_done
 from maopg.experiment.runs import RunData, final, load_run, peak
 from maopg.experiment.sysinfo import markdown
 from maopg.experiment.trainer import train
+from maopg.policy import PRECISIONS
 
 TARGET_SAMPLES = 200_000
 TARGET_MINUTES = 15.0
@@ -51,9 +54,20 @@ def _decisions_per_1k(run: RunData, start: int, stop: int | None) -> float:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--run-dir", type=Path, default=Path("runs/bench/train_speed_wf"))
+    parser.add_argument(
+        "--precision",
+        choices=PRECISIONS,
+        default="fp32",
+        help="what the CNNs compute in (the precision setting; default %(default)s)",
+    )
+    parser.add_argument(
+        "--run-dir", type=Path, help="default runs/bench/train_speed_wf, _bf16 for bf16"
+    )
     parser.add_argument("--grid", type=Path, default=Path("results/runs/water_filling/async"))
     args = parser.parse_args()
+    if args.run_dir is None:
+        suffix = "" if args.precision == "fp32" else f"_{args.precision}"
+        args.run_dir = Path(f"runs/bench/train_speed_wf{suffix}")
     conditions = markdown()
     config = TrainConfig(
         task="water_filling",
@@ -63,6 +77,7 @@ def main() -> None:
         run_dir=str(args.run_dir),
         progress=False,
         video=False,
+        precision=args.precision,
     )
     if read_done(args.run_dir) is None:
         stop = threading.Event()
@@ -84,22 +99,25 @@ def main() -> None:
         f"- load average (1 min) while training, sampled every 10 s: median "
         f"{statistics.median(loads):.2f} (min {min(loads):.2f}, max {max(loads):.2f})"
     )
+    print(f"- this run: `precision={args.precision}` (`{args.run_dir}`)")
     print(f"- target: `async`, {TARGET_SAMPLES:,} samples in ≤ {TARGET_MINUTES:.0f} min\n")
     print(
-        "| run | code | samples | wall-clock | samples/s | decisions per 1K ticks, first → "
-        "last 10% | final 10% return | peak return |"
+        "| run | code | samples | wall-clock | samples/s | ms per decision point | decisions per "
+        "1K ticks, first → last 10% | final 10% return | peak return |"
     )
-    print("|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|")
     grid = [load_run(d) for d in sorted(args.grid.glob("seed*"))]
     for label, each in [("this run", run), *((f"grid {g.path.name}", g) for g in grid)]:
         wall = each.metrics["wall_time"][-1] / 60
         tenth = max(1, len(each.samples) // 10)
         first = _decisions_per_1k(each, 0, tenth)
         last = _decisions_per_1k(each, len(each.samples) - tenth, None)
+        per_decision = 1000 * wall * 60 / each.metrics["option_steps"].sum()  # ms
         code = "this tree" if each is run else "committed grid"
         print(
             f"| {label} | {code} | {each.samples[-1]:,.0f} | {wall:.1f} min | "
-            f"{each.samples[-1] / (wall * 60):.0f} | {first:.0f} → {last:.0f} | "
+            f"{each.samples[-1] / (wall * 60):.0f} | {per_decision:.1f} | "
+            f"{first:.0f} → {last:.0f} | "
             f"{final(each):,.0f} | {peak(each, window=10):,.0f} |"
         )
     finals = [final(g) for g in grid]

@@ -40,6 +40,7 @@ from maopg.experiment.methods import get_method, section_classes
 from maopg.experiment.wandb_log import INSTALL_HINT as WANDB_HINT
 from maopg.experiment.wandb_log import WandbOptions, wandb_available
 from maopg.learner.mappo import PPOConfig
+from maopg.policy import PRECISIONS
 from maopg.settings import Settings, setting
 from maopg.sim.egl_check import gl_problem
 from maopg.tasks import make_config, task_entry
@@ -117,6 +118,12 @@ class TrainConfig(Settings):
     environments always step (and render) on the CPU side. Bit-exact learning curves are
     promised on ``cpu`` only: CUDA kernels round differently (and not always deterministically),
     so a ``cuda`` run is reproducible in distribution, not bit for bit."""
+    precision: str = setting("fp32", choices=tuple(PRECISIONS))
+    """What the image encoders (the CNNs) compute in: ``fp32``, or ``bf16``, faster on a CPU
+    with bf16 instructions (AVX512-BF16, AMX) and ``torch_threads=1`` or on a recent GPU, slower
+    elsewhere (``bench/precision.py``; :func:`~maopg.policy.encoders.set_precision` says why
+    only the CNNs). Deterministic on one machine either way, but a ``bf16`` run follows another
+    trajectory than an ``fp32`` one. Runs without images compute the same in both."""
     torch_threads: int = setting(1, ge=0)
     """``torch.set_num_threads`` (0 = torch's default). One thread is fastest for the small
     state-vector networks and avoids oversubscribing the cores the environments use."""

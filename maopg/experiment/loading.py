@@ -20,6 +20,7 @@ from maopg.experiment.methods import Method, get_method
 from maopg.experiment.run_dir import CHECKPOINT, FINAL
 from maopg.learner import Actor, CheckpointError, fitting, load_checkpoint
 from maopg.plugins import load_plugins
+from maopg.policy import set_precision
 
 CHECKPOINT_NAMES = (FINAL, CHECKPOINT)
 """Looked for, in this order, when a run directory is given instead of a file."""
@@ -94,4 +95,5 @@ def load_trained(path: str | Path, device: str = "cpu") -> Trained:
     with fitting(file):
         policy.load_state_dict(state[key])
     policy.to(config.device)
+    set_precision(policy, config.precision)  # act as it learnt to
     return Trained(file, config, method, policy, int(state.get("samples", 0)), spec)

@@ -26,6 +26,15 @@ def cpu_name() -> str:
     return platform.processor() or "unknown"
 
 
+def cpu_extensions() -> str:
+    """The widest vector instructions torch's CPU kernels use here, and whether its oneDNN
+    convolutions have bf16 instructions (``precision=bf16`` is fast only where they do)."""
+    import torch
+
+    native = getattr(torch.ops.mkldnn, "_is_mkldnn_bf16_supported", lambda: False)()
+    return f"{torch.backends.cpu.get_cpu_capability()}, bf16 {'native' if native else 'emulated'}"
+
+
 def torch_device() -> str:
     """What ``device=auto`` resolves to on this machine, with the GPU's name."""
     import torch
@@ -51,6 +60,7 @@ def conditions(gl: bool = True) -> dict[str, str]:
         "mujoco": mujoco.__version__,
         "torch": torch.__version__,
         "torch_threads": str(torch.get_num_threads()),
+        "cpu vector extensions": cpu_extensions(),
         "torch device": torch_device(),
         "numpy": np.__version__,
         # Other processes share the cores: timings taken under load read slower.

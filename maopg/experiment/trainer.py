@@ -252,6 +252,12 @@ def train(config: TrainConfig, *, resume: bool = False, overwrite: bool = False)
     resume = resume and checkpoint_path.exists()
     if config.torch_threads:
         torch.set_num_threads(config.torch_threads)
+    if config.precision == "bf16" and config.device == "cpu" and torch.get_num_threads() > 1:
+        _note(
+            f"precision=bf16 with {torch.get_num_threads()} torch threads: the actor's and "
+            "critic's updates, each on a thread of its own, then run several times slower than "
+            "in fp32 (bench/precision.py --torch-threads 2); torch_threads=1 is the fast setting"
+        )
     sample_gen, update_gen = _seed_everything(config.seed)
     method = get_method(config.method)
 
@@ -278,6 +284,7 @@ def train(config: TrainConfig, *, resume: bool = False, overwrite: bool = False)
             sample_gen=sample_gen,
             update_gen=update_gen,
             device=torch.device(config.device),
+            precision=config.precision,
         )
         learner = method.learner(policy, setup)
         mirror = _open_run_dir(config, overwrite=overwrite and saved is None)  # --resume wins

@@ -22,6 +22,7 @@ from torch import Tensor, nn
 
 from maopg.env.contract import DecisionPoint, EnvSpec
 from maopg.env.vector import SeededVectorEnv
+from maopg.policy import set_precision
 
 CPU = torch.device("cpu")
 
@@ -87,6 +88,10 @@ class LearnerSetup:
     on the CPU from them and its result moved to the device, so a ``cpu`` run draws exactly as
     it always has and a ``cuda`` run's draws are as reproducible as its probabilities
     (:func:`maopg.policy.conditional.draw_multinomial`)."""
+    precision: str = "fp32"
+    """What the image encoders of the learner's networks compute in (the run's ``precision``;
+    :func:`maopg.policy.encoders.set_precision`): the learner sets it on every network it
+    builds itself."""
 
 
 class Learner(ABC):
@@ -108,6 +113,7 @@ class Learner(ABC):
         # Built on the CPU from torch's global RNG (the same initial weights on every device),
         # then moved: a subclass builds its optimisers after this, on the moved parameters.
         self.policy = policy.to(setup.device)
+        set_precision(self.policy, setup.precision)
         self.setup = setup
         self.device = setup.device
         self.config = setup.config

@@ -55,6 +55,7 @@ from maopg.policy import (
     PartialFactoredPolicy,
     PartiallyCentralizedPolicy,
     episode_starts,
+    set_precision,
     stack_conditions,
 )
 from maopg.settings import Settings, setting
@@ -409,6 +410,7 @@ class MAPPOLearner(Learner):
             setup.spec, hidden=setup.hidden, layers=setup.layers, recurrent=recurrent
         )
         self.critic = critic.to(self.device)
+        set_precision(self.critic, setup.precision)
         self.value_norm = ValueNorm().to(self.device) if self.config.value_norm else None
         self.ppo = MAPPO(policy, self.critic, self.value_norm, self.config)
         self.memory = {

@@ -21,7 +21,14 @@ from maopg.policy.conditional import (
     ravel_joint,
     unravel_joint,
 )
-from maopg.policy.encoders import JointEncoder, LocalEncoder, NatureCNN, init_orthogonal
+from maopg.policy.encoders import (
+    PRECISIONS,
+    JointEncoder,
+    LocalEncoder,
+    NatureCNN,
+    init_orthogonal,
+    set_precision,
+)
 from maopg.policy.memory import OptionMemory
 from maopg.policy.networks import (
     CentralCritic,
@@ -33,6 +40,7 @@ from maopg.policy.networks import (
 )
 
 __all__ = [
+    "PRECISIONS",
     "AutoregressiveConditional",
     "AutoregressivePolicy",
     "CentralCritic",
@@ -61,6 +69,7 @@ __all__ = [
     "joint_slice_mask",
     "partial_conditional_log_probs",
     "ravel_joint",
+    "set_precision",
     "stack_conditions",
     "unravel_joint",
     "vector_slices",

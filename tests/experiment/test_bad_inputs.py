@@ -66,6 +66,7 @@ BAD_TRAIN = [
     (["--seed", "-1"], r"seed must be >= 0, got -1"),
     (["gamma=nan"], r"gamma must be a finite number, got nan"),
     (["device=tpu"], r"device must be one of \['auto', 'cpu', 'cuda'\]"),
+    (["precision=fp16"], r"precision must be one of \['fp32', 'bf16'\]"),
     (["--no-images", "env.images=true"], r"env\.images=True is not a task override: .*images=true"),
     (["env.image_size=48"], r"env\.image_size=48 is not a task override: .*image_size=84"),
     (["env.primitive=true"], r"env\.primitive=True is not a task override: .*end2end"),

@@ -182,11 +182,11 @@ class DroneAdapter(base.DroneAdapter):
     def apply(self) -> None:
         c = self.constants
         data = self.data
-        pos = data.xpos[self.root_body_id]
-        qvel = data.qvel
+        # Python floats, read once: arithmetic on numpy scalars costs several times as much,
+        # and this runs while other environments' threads wait for the GIL.
+        pos = data.xpos[self.root_body_id].tolist()
         v = self._vel
-        vx, vy, vz = qvel[v], qvel[v + 1], qvel[v + 2]
-        wx, wy, wz = qvel[v + 3], qvel[v + 4], qvel[v + 5]
+        vx, vy, vz, wx, wy, wz = data.qvel[v : v + 6].tolist()
 
         # 1. position -> desired velocity (horizontal and vertical shaped separately)
         ex, ey = self._target[0] - pos[0], self._target[1] - pos[1]
@@ -221,7 +221,7 @@ class DroneAdapter(base.DroneAdapter):
         # 4. attitude PD, tilt and yaw decoupled (a full SO(3) error would shrink, even flip,
         # the tilt correction while a large yaw turn is under way): the tilt error is the
         # rotation taking z_body onto z_d, e = R^T (z_b x z_d); yaw is a wrapped heading error.
-        r = data.xmat[self.root_body_id]  # row-major R: columns are the body axes in world
+        r = data.xmat[self.root_body_id].tolist()  # row-major R: columns are body axes in world
         b0, b1, b2 = (r[0], r[3], r[6]), (r[1], r[4], r[7]), (r[2], r[5], r[8])
         cx = b2[1] * zz - b2[2] * zy
         cy = b2[2] * zx - b2[0] * zz
