@@ -8,7 +8,8 @@ Prints a Markdown block for BENCHMARKS.md.
    ``bf16``.
 2. One PPO update (the default 10 epochs, actor and critic) of `async` from RGB on one batch of
    Water Filling's 2,000 ticks, collected once by the policy and critic of ``--run``'s
-   checkpoint (a trained policy decides more often, so its batch holds more decision points
+   checkpoint (a run of `async` from RGB at the default settings, as ``bench/train_speed_wf.py``
+   trains) (a trained policy decides more often, so its batch holds more decision points
    and images than an untrained one's; without ``--run``, the untrained networks). Both
    precisions start from the same weights and optimiser state and update on the same batch,
    so the table also shows how far their losses move apart.
@@ -32,11 +33,10 @@ import torch
 from maopg.env.vector import SeededVectorEnv
 from maopg.experiment.config import TrainConfig
 from maopg.experiment.methods import get_method
+from maopg.experiment.run_dir import CHECKPOINT
 from maopg.experiment.sysinfo import markdown
 from maopg.learner import LearnerSetup, load_checkpoint
-from maopg.policy import NatureCNN, set_precision
-
-PRECISIONS = ("fp32", "bf16")
+from maopg.policy import PRECISIONS, NatureCNN, set_precision
 
 
 def cnn_seconds(images: int, rounds: int) -> dict[str, float]:
@@ -56,7 +56,9 @@ def cnn_seconds(images: int, rounds: int) -> dict[str, float]:
     return {p: statistics.median(t) for p, t in times.items()}
 
 
-def update_seconds(run: Path | None, rounds: int) -> tuple[dict[str, float], dict, int, int]:
+def update_seconds(
+    run: Path | None, rounds: int
+) -> tuple[dict[str, float], dict[str, dict[str, float]], int, int]:
     """Median seconds of one PPO update per precision on one collected batch; the first
     round's stats per precision; the batch's decision points and distinct images."""
     config = TrainConfig(task="water_filling", method="async", images=True).resolved()
@@ -64,7 +66,9 @@ def update_seconds(run: Path | None, rounds: int) -> tuple[dict[str, float], dic
     envs = SeededVectorEnv(config.env(), num_envs=config.num_envs, seed=0, backend="local")
     try:
         envs.reset()
-        policy = method.build_policy(envs.spec, hidden=128, layers=2, config=config.learner)
+        policy = method.build_policy(
+            envs.spec, hidden=config.hidden, layers=config.layers, config=config.learner
+        )
         learner = method.learner(
             policy,
             LearnerSetup(
@@ -80,7 +84,7 @@ def update_seconds(run: Path | None, rounds: int) -> tuple[dict[str, float], dic
             ),
         )
         if run is not None:
-            learner.load_state_dict(load_checkpoint(run / "checkpoint.pt"))
+            learner.load_state_dict(load_checkpoint(run / CHECKPOINT))
         rollout = learner.collect(envs)
     finally:
         envs.close()

@@ -27,6 +27,8 @@ import statistics
 import threading
 from pathlib import Path
 
+import torch
+
 from maopg.experiment.config import TrainConfig
 from maopg.experiment.run_dir import read_done
 from maopg.experiment.runs import RunData, final, load_run, peak
@@ -68,6 +70,7 @@ def main() -> None:
     if args.run_dir is None:
         suffix = "" if args.precision == "fp32" else f"_{args.precision}"
         args.run_dir = Path(f"runs/bench/train_speed_wf{suffix}")
+    torch.set_num_threads(TrainConfig.torch_threads)  # what train() sets: the conditions say so
     conditions = markdown()
     config = TrainConfig(
         task="water_filling",

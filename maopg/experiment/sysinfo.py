@@ -26,13 +26,25 @@ def cpu_name() -> str:
     return platform.processor() or "unknown"
 
 
+BF16_FLAGS = ("avx512_bf16", "amx_bf16")
+"""``/proc/cpuinfo`` flags of the instructions that compute in bf16 (``precision=bf16`` is fast
+only with one of them: elsewhere oneDNN converts to float32 and back around every operation)."""
+
+
 def cpu_extensions() -> str:
-    """The widest vector instructions torch's CPU kernels use here, and whether its oneDNN
-    convolutions have bf16 instructions (``precision=bf16`` is fast only where they do)."""
+    """The widest vector instructions torch's CPU kernels use here, and the CPU's bf16 ones."""
     import torch
 
-    native = getattr(torch.ops.mkldnn, "_is_mkldnn_bf16_supported", lambda: False)()
-    return f"{torch.backends.cpu.get_cpu_capability()}, bf16 {'native' if native else 'emulated'}"
+    try:
+        flags = next(
+            set(line.split(":", 1)[1].split())
+            for line in Path("/proc/cpuinfo").read_text().splitlines()
+            if line.startswith("flags")
+        )
+    except (OSError, StopIteration):
+        flags = set()
+    bf16 = ", ".join(f for f in BF16_FLAGS if f in flags) or "none"
+    return f"{torch.backends.cpu.get_cpu_capability()}, bf16 instructions: {bf16}"
 
 
 def torch_device() -> str:

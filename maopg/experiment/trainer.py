@@ -252,7 +252,8 @@ def train(config: TrainConfig, *, resume: bool = False, overwrite: bool = False)
     resume = resume and checkpoint_path.exists()
     if config.torch_threads:
         torch.set_num_threads(config.torch_threads)
-    if config.precision == "bf16" and config.device == "cpu" and torch.get_num_threads() > 1:
+    bf16_cnn = config.precision == "bf16" and config.images and config.device == "cpu"
+    if bf16_cnn and torch.get_num_threads() > 1:
         _note(
             f"precision=bf16 with {torch.get_num_threads()} torch threads: the actor's and "
             "critic's updates, each on a thread of its own, then run several times slower than "

@@ -5,17 +5,20 @@ exactly, and an evaluation acts in the precision the run trained in."""
 from __future__ import annotations
 
 import csv
+import json
 from pathlib import Path
 
 import pytest
 import torch
 
 from maopg.env import make_env
+from maopg.experiment.config import TrainConfig
 from maopg.experiment.loading import load_trained
+from maopg.experiment.methods import get_method
 from maopg.experiment.run_dir import TIMING_COLUMNS
 from maopg.experiment.train_cli import main as train_main
-from maopg.policy import CentralCritic, NatureCNN, ObsBatch, set_precision
-from maopg.policy.encoders import PRECISIONS
+from maopg.learner import LearnerSetup
+from maopg.policy import PRECISIONS, CentralCritic, NatureCNN, ObsBatch, set_precision
 
 TINY = [
     "--images",
@@ -86,6 +89,41 @@ def test_set_precision_reaches_every_cnn_and_refuses_an_unknown_precision() -> N
         set_precision(critic, "fp16")
 
 
+def _cnn_dtypes(module: torch.nn.Module) -> set[torch.dtype]:
+    return {m.compute_dtype for m in module.modules() if isinstance(m, NatureCNN)}
+
+
+@pytest.mark.parametrize("method", ["async", "partial", "mac-dqn"])
+def test_every_learner_sets_the_precision_of_every_network_it_holds(method: str) -> None:
+    """The policy (any method's), MAPPO's critic, Mac-DQN's online and target Q-networks."""
+    config = TrainConfig(task="tool_delivery", method=method, images=True, image_size=36)
+    config = config.resolved()
+    env = config.env().make(0)
+    try:
+        spec = env.spec
+    finally:
+        env.close()
+    built = get_method(method)
+    policy = built.build_policy(spec, hidden=16, layers=1, config=config.learner)
+    setup = LearnerSetup(
+        spec=spec,
+        config=config.learner,
+        num_envs=1,
+        batch_ticks=10,
+        gamma=0.99,
+        hidden=16,
+        layers=1,
+        sample_gen=torch.Generator(),
+        update_gen=torch.Generator(),
+        precision="bf16",
+    )
+    learner = built.learner(policy, setup)
+    networks = [learner.policy]
+    networks += [learner.critic] if method != "mac-dqn" else [learner.dqn.target]  # type: ignore[attr-defined]
+    for network in networks:
+        assert _cnn_dtypes(network) == {torch.bfloat16}, type(network).__name__
+
+
 def test_a_bf16_run_is_deterministic_resumes_exactly_and_evaluates_in_bf16(
     tmp_path: Path,
 ) -> None:
@@ -97,5 +135,18 @@ def test_a_bf16_run_is_deterministic_resumes_exactly_and_evaluates_in_bf16(
     assert fp32 != whole  # the setting changes what is computed
     trained = load_trained(tmp_path / "whole")
     assert trained.config.precision == "bf16"
-    cnns = [m for m in trained.policy.modules() if isinstance(m, NatureCNN)]
-    assert cnns and {c.compute_dtype for c in cnns} == {torch.bfloat16}
+    assert _cnn_dtypes(trained.policy) == {torch.bfloat16}
+
+
+def test_a_resume_keeps_the_precision(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    """Unsaid, a resumed run keeps its precision; another one is refused before anything runs."""
+    run = tmp_path / "run"
+    _train(run, 40, "precision=bf16")
+    _train(run, 80, "--resume")
+    assert json.loads((run / "config.json").read_text())["precision"] == "bf16"
+    capsys.readouterr()
+    argv = [*TINY, "--total-samples", "120", "--resume", "precision=fp32", "--run-dir", str(run)]
+    assert train_main(argv) == 2
+    err = capsys.readouterr().err
+    assert "precision" in err and "Traceback" not in err
+    assert len(_curve(run)) == 2
