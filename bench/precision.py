@@ -32,10 +32,10 @@ import torch
 
 from maopg.env.vector import SeededVectorEnv
 from maopg.experiment.config import TrainConfig
-from maopg.experiment.methods import get_method
 from maopg.experiment.run_dir import CHECKPOINT
 from maopg.experiment.sysinfo import markdown
-from maopg.learner import LearnerSetup, load_checkpoint
+from maopg.experiment.trainer import build_learner
+from maopg.learner import MAPPOLearner, load_checkpoint
 from maopg.policy import PRECISIONS, NatureCNN, set_precision
 
 
@@ -62,27 +62,12 @@ def update_seconds(
     """Median seconds of one PPO update per precision on one collected batch; the first
     round's stats per precision; the batch's decision points and distinct images."""
     config = TrainConfig(task="water_filling", method="async", images=True).resolved()
-    method = get_method("async")
     envs = SeededVectorEnv(config.env(), num_envs=config.num_envs, seed=0, backend="local")
     try:
         envs.reset()
-        policy = method.build_policy(
-            envs.spec, hidden=config.hidden, layers=config.layers, config=config.learner
-        )
-        learner = method.learner(
-            policy,
-            LearnerSetup(
-                spec=envs.spec,
-                config=config.learner,
-                num_envs=config.num_envs,
-                batch_ticks=config.batch_ticks,  # type: ignore[arg-type]
-                gamma=config.gamma,
-                hidden=config.hidden,
-                layers=config.layers,
-                sample_gen=torch.Generator().manual_seed(0),
-                update_gen=torch.Generator().manual_seed(1),
-            ),
-        )
+        gens = torch.Generator().manual_seed(0), torch.Generator().manual_seed(1)
+        learner = build_learner(config, envs.spec, *gens)
+        assert isinstance(learner, MAPPOLearner)
         if run is not None:
             learner.load_state_dict(load_checkpoint(run / CHECKPOINT))
         rollout = learner.collect(envs)

@@ -41,9 +41,8 @@ import torch
 from maopg.env.rollout import RandomPolicy
 from maopg.env.vector import EnvConfig, SeededVectorEnv
 from maopg.experiment.config import TrainConfig
-from maopg.experiment.methods import get_method
 from maopg.experiment.sysinfo import markdown
-from maopg.learner import LearnerSetup
+from maopg.experiment.trainer import build_learner
 
 
 class TimedBackend:
@@ -87,23 +86,11 @@ def learner_costs(task: str, num_envs: int, iterations: int) -> tuple[float, flo
     """(acting seconds per lockstep step, update seconds per sample, batch samples) of the
     default ``async`` learner from RGB, over ``iterations`` iterations after one warm-up."""
     config = TrainConfig(task=task, method="async", images=True, num_envs=num_envs).resolved()
-    method = get_method("async")
     envs = SeededVectorEnv(config.env(), num_envs=num_envs, seed=0, backend="local")
     try:
         envs.reset()
-        policy = method.build_policy(envs.spec, hidden=128, layers=2, config=config.learner)
-        setup = LearnerSetup(
-            spec=envs.spec,
-            config=config.learner,
-            num_envs=num_envs,
-            batch_ticks=config.batch_ticks,  # type: ignore[arg-type]
-            gamma=config.gamma,
-            hidden=config.hidden,
-            layers=config.layers,
-            sample_gen=torch.Generator().manual_seed(0),
-            update_gen=torch.Generator().manual_seed(1),
-        )
-        learner = method.learner(policy, setup)
+        gens = torch.Generator().manual_seed(0), torch.Generator().manual_seed(1)
+        learner = build_learner(config, envs.spec, *gens)
         collect, collect_seconds = learner.collect, [0.0]
 
         def timed_collect(vector: SeededVectorEnv) -> Any:

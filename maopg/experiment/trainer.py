@@ -26,6 +26,7 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
+from maopg.env.contract import EnvSpec
 from maopg.env.vector import SeededVectorEnv
 from maopg.env.video import record_episode
 from maopg.experiment import evaluate as evaluation
@@ -52,6 +53,7 @@ from maopg.experiment.wandb_log import WandbMirror
 from maopg.experiment.watch import StepWatch
 from maopg.learner import (
     CheckpointError,
+    Learner,
     LearnerSetup,
     NonFiniteError,
     capture_global_rng,
@@ -93,6 +95,32 @@ def _seed_everything(seed: int) -> tuple[torch.Generator, torch.Generator]:
         torch.Generator().manual_seed(int(sample_seed)),
         torch.Generator().manual_seed(int(update_seed)),
     )
+
+
+def build_learner(
+    config: TrainConfig,
+    spec: EnvSpec,
+    sample_gen: torch.Generator,
+    update_gen: torch.Generator,
+) -> Learner:
+    """The learner of a resolved ``config`` with the method's freshly initialised policy, for
+    environments of ``spec``: what :func:`train` learns with, and what a benchmark times."""
+    method = get_method(config.method)
+    size = {"hidden": config.hidden, "layers": config.layers}
+    policy = method.build_policy(spec, **size, config=config.learner)
+    setup = LearnerSetup(
+        spec=spec,
+        config=config.learner,
+        num_envs=config.num_envs,
+        batch_ticks=config.batch_ticks,  # type: ignore[arg-type]
+        gamma=config.gamma,
+        **size,
+        sample_gen=sample_gen,
+        update_gen=update_gen,
+        device=torch.device(config.device),
+        precision=config.precision,
+    )
+    return method.learner(policy, setup)
 
 
 def _note(message: str) -> None:
@@ -273,21 +301,7 @@ def train(config: TrainConfig, *, resume: bool = False, overwrite: bool = False)
     )
     mirror: WandbMirror | None = None
     try:
-        size = {"hidden": config.hidden, "layers": config.layers}
-        policy = method.build_policy(envs.spec, **size, config=config.learner)
-        setup = LearnerSetup(
-            spec=envs.spec,
-            config=config.learner,
-            num_envs=config.num_envs,
-            batch_ticks=config.batch_ticks,  # type: ignore[arg-type]
-            gamma=config.gamma,
-            **size,
-            sample_gen=sample_gen,
-            update_gen=update_gen,
-            device=torch.device(config.device),
-            precision=config.precision,
-        )
-        learner = method.learner(policy, setup)
+        learner = build_learner(config, envs.spec, sample_gen, update_gen)
         mirror = _open_run_dir(config, overwrite=overwrite and saved is None)  # --resume wins
         if done is not None:
             # A larger budget: unfinished again until it is reached. The old weights go with

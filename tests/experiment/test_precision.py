@@ -14,10 +14,9 @@ import torch
 from maopg.env import make_env
 from maopg.experiment.config import TrainConfig
 from maopg.experiment.loading import load_trained
-from maopg.experiment.methods import get_method
 from maopg.experiment.run_dir import TIMING_COLUMNS
 from maopg.experiment.train_cli import main as train_main
-from maopg.learner import LearnerSetup
+from maopg.experiment.trainer import build_learner
 from maopg.policy import PRECISIONS, CentralCritic, NatureCNN, ObsBatch, set_precision
 
 TINY = [
@@ -96,28 +95,20 @@ def _cnn_dtypes(module: torch.nn.Module) -> set[torch.dtype]:
 @pytest.mark.parametrize("method", ["async", "partial", "mac-dqn"])
 def test_every_learner_sets_the_precision_of_every_network_it_holds(method: str) -> None:
     """The policy (any method's), MAPPO's critic, Mac-DQN's online and target Q-networks."""
-    config = TrainConfig(task="tool_delivery", method=method, images=True, image_size=36)
-    config = config.resolved()
-    env = config.env().make(0)
-    try:
-        spec = env.spec
-    finally:
-        env.close()
-    built = get_method(method)
-    policy = built.build_policy(spec, hidden=16, layers=1, config=config.learner)
-    setup = LearnerSetup(
-        spec=spec,
-        config=config.learner,
-        num_envs=1,
-        batch_ticks=10,
-        gamma=0.99,
+    config = TrainConfig(
+        task="tool_delivery",
+        method=method,
+        images=True,
+        image_size=36,
         hidden=16,
         layers=1,
-        sample_gen=torch.Generator(),
-        update_gen=torch.Generator(),
         precision="bf16",
-    )
-    learner = built.learner(policy, setup)
+    ).resolved()
+    env = config.env().make(0)
+    try:
+        learner = build_learner(config, env.spec, torch.Generator(), torch.Generator())
+    finally:
+        env.close()
     networks = [learner.policy]
     networks += [learner.critic] if method != "mac-dqn" else [learner.dqn.target]  # type: ignore[attr-defined]
     for network in networks:
