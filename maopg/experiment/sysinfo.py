@@ -31,10 +31,8 @@ BF16_FLAGS = ("avx512_bf16", "amx_bf16")
 only with one of them: elsewhere oneDNN converts to float32 and back around every operation)."""
 
 
-def cpu_extensions() -> str:
-    """The widest vector instructions torch's CPU kernels use here, and the CPU's bf16 ones."""
-    import torch
-
+def bf16_instructions() -> list[str]:
+    """Which of :data:`BF16_FLAGS` this CPU has (none where ``/proc/cpuinfo`` is missing)."""
     try:
         flags = next(
             set(line.split(":", 1)[1].split())
@@ -42,8 +40,15 @@ def cpu_extensions() -> str:
             if line.startswith("flags")
         )
     except (OSError, StopIteration):
-        flags = set()
-    bf16 = ", ".join(f for f in BF16_FLAGS if f in flags) or "none"
+        return []
+    return [f for f in BF16_FLAGS if f in flags]
+
+
+def cpu_extensions() -> str:
+    """The widest vector instructions torch's CPU kernels use here, and the CPU's bf16 ones."""
+    import torch
+
+    bf16 = ", ".join(bf16_instructions()) or "none"
     return f"{torch.backends.cpu.get_cpu_capability()}, bf16 instructions: {bf16}"
 
 

@@ -48,6 +48,7 @@ from maopg.experiment.run_dir import (
     write_done,
 )
 from maopg.experiment.run_eta import RunRates, about, estimate_run
+from maopg.experiment.sysinfo import BF16_FLAGS, bf16_instructions
 from maopg.experiment.tb_video import add_video
 from maopg.experiment.wandb_log import WandbMirror
 from maopg.experiment.watch import StepWatch
@@ -286,6 +287,12 @@ def train(config: TrainConfig, *, resume: bool = False, overwrite: bool = False)
             f"precision=bf16 with {torch.get_num_threads()} torch threads: the actor's and "
             "critic's updates, each on a thread of its own, then run several times slower than "
             "in fp32 (bench/precision.py --torch-threads 2); torch_threads=1 is the fast setting"
+        )
+    if bf16_cnn and not bf16_instructions():
+        _note(
+            "precision=bf16 on a CPU without bf16 instructions (none of "
+            f"{', '.join(BF16_FLAGS)} in /proc/cpuinfo): its convolutions are emulated and "
+            "may run slower than in fp32 (bench/precision.py measures both)"
         )
     sample_gen, update_gen = _seed_everything(config.seed)
     method = get_method(config.method)

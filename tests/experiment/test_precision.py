@@ -12,6 +12,7 @@ import pytest
 import torch
 
 from maopg.env import make_env
+from maopg.experiment import trainer
 from maopg.experiment.config import TrainConfig
 from maopg.experiment.loading import load_trained
 from maopg.experiment.run_dir import TIMING_COLUMNS
@@ -141,3 +142,20 @@ def test_a_resume_keeps_the_precision(tmp_path: Path, capsys: pytest.CaptureFixt
     err = capsys.readouterr().err
     assert "precision" in err and "Traceback" not in err
     assert len(_curve(run)) == 2
+
+
+def test_bf16_where_it_is_slow_is_said_at_the_start(
+    tmp_path: Path, capsys: pytest.CaptureFixture, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """More than one torch thread, or a CPU without bf16 instructions: one note each."""
+    monkeypatch.setattr(trainer, "bf16_instructions", lambda: [])
+    threads = torch.get_num_threads()
+    try:
+        _train(tmp_path / "run", 40, "precision=bf16", "torch_threads=2")
+    finally:
+        torch.set_num_threads(threads)
+    err = capsys.readouterr().err
+    assert "precision=bf16 with 2 torch threads" in err
+    assert "precision=bf16 on a CPU without bf16 instructions" in err
+    _train(tmp_path / "fp32", 40, "torch_threads=2")
+    assert "precision=bf16" not in capsys.readouterr().err
