@@ -93,7 +93,7 @@ def update_seconds(
             times[precision].append(time.perf_counter() - start)
             stats.setdefault(precision, row)
     images = batch.obs.images  # each camera image of the batch, or its bank of distinct ones
-    distinct = len(np.unique(images.reshape(-1, 64 * 64 * 3).numpy(), axis=0))
+    distinct = len(np.unique(images.flatten(end_dim=-4).flatten(1).numpy(), axis=0))
     medians = {p: statistics.median(t) for p, t in times.items()}
     return medians, stats, rollout.num_steps * rollout.num_envs, distinct
 

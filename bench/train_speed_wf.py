@@ -71,7 +71,9 @@ def main() -> None:
         help="spawned worker processes (backend=processes); default 0: the default backend",
     )
     parser.add_argument(
-        "--run-dir", type=Path, help="default runs/bench/train_speed_wf, _bf16 for bf16"
+        "--run-dir",
+        type=Path,
+        help="default runs/bench/train_speed_wf[_bf16][_processesN], by the options above",
     )
     parser.add_argument("--grid", type=Path, default=Path("results/runs/water_filling/async"))
     args = parser.parse_args()

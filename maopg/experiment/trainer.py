@@ -128,6 +128,24 @@ def _note(message: str) -> None:
     print(f"note: {message}", file=sys.stderr)
 
 
+def _note_slow_bf16(config: TrainConfig) -> None:
+    """Say where ``precision=bf16`` makes the CNNs slower, not faster (bench/precision.py)."""
+    if not (config.precision == "bf16" and config.images and config.device == "cpu"):
+        return
+    if torch.get_num_threads() > 1:
+        _note(
+            f"precision=bf16 with {torch.get_num_threads()} torch threads: the actor's and "
+            "critic's updates, each on a thread of its own, then run several times slower than "
+            "in fp32 (bench/precision.py --torch-threads 2); torch_threads=1 is the fast setting"
+        )
+    if not bf16_instructions():
+        _note(
+            "precision=bf16 on a CPU without bf16 instructions (none of "
+            f"{', '.join(BF16_FLAGS)} in /proc/cpuinfo): its convolutions are emulated and "
+            "may run slower than in fp32 (bench/precision.py measures both)"
+        )
+
+
 def _differences(ours: dict, theirs: dict) -> dict[str, tuple]:
     """The keys of two :meth:`TrainConfig.flat` views that differ, but for RESUMABLE_KEYS."""
     return {
@@ -281,19 +299,7 @@ def train(config: TrainConfig, *, resume: bool = False, overwrite: bool = False)
     resume = resume and checkpoint_path.exists()
     if config.torch_threads:
         torch.set_num_threads(config.torch_threads)
-    bf16_cnn = config.precision == "bf16" and config.images and config.device == "cpu"
-    if bf16_cnn and torch.get_num_threads() > 1:
-        _note(
-            f"precision=bf16 with {torch.get_num_threads()} torch threads: the actor's and "
-            "critic's updates, each on a thread of its own, then run several times slower than "
-            "in fp32 (bench/precision.py --torch-threads 2); torch_threads=1 is the fast setting"
-        )
-    if bf16_cnn and not bf16_instructions():
-        _note(
-            "precision=bf16 on a CPU without bf16 instructions (none of "
-            f"{', '.join(BF16_FLAGS)} in /proc/cpuinfo): its convolutions are emulated and "
-            "may run slower than in fp32 (bench/precision.py measures both)"
-        )
+    _note_slow_bf16(config)
     sample_gen, update_gen = _seed_everything(config.seed)
     method = get_method(config.method)
 
