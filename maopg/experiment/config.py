@@ -46,7 +46,12 @@ from maopg.sim.egl_check import gl_problem
 from maopg.tasks import make_config, task_entry
 from maopg.tasks.base import MAX_IMAGE_SIZE
 
-GENERIC_DEFAULTS: dict[str, Any] = {"batch_ticks": 1000, "total_samples": 100_000, "images": False}
+GENERIC_DEFAULTS: dict[str, Any] = {
+    "batch_ticks": 1000,
+    "total_samples": 100_000,
+    "images": False,
+    "backend": "threads",
+}
 """For a task that declares no training defaults of its own (``register_task``)."""
 
 LEGACY_FLAT_KEYS = frozenset(f.name for f in dataclasses.fields(PPOConfig))
@@ -91,9 +96,13 @@ class TrainConfig(Settings):
     (this process, stepped in parallel while ``mj_step`` and rendering release the GIL;
     ``bench/backends.py`` measures the gain), ``processes`` (``spawn`` workers) or ``ray``
     (Ray actors, on this machine or a cluster: the ``ray.*`` settings); default
-    ``processes`` when ``num_workers`` > 1, else ``threads``. All give the same rollouts."""
+    ``processes`` when ``num_workers`` > 1, else the task's default: ``threads``, or
+    ``processes`` for Water Filling, whose drone controller holds the GIL 50 times a tick
+    (BENCHMARKS.md, "Training wall-clock"). All give the same rollouts."""
     num_workers: int = setting(0, ge=0)
-    """Worker processes of the ``processes`` backend, actors of ``ray`` (0 = one), threads of
+    """Worker processes of the ``processes`` backend (0 = one per environment: the operating
+    system then balances option steps of uneven length over the cores, where a worker with
+    several environments waits for its slowest), actors of ``ray`` (0 = one), threads of
     ``threads`` (at least 2)."""
     ray: RayOptions = field(default_factory=RayOptions)
     """Where the ``ray`` backend's actors run (``ray.address=auto``; :class:`RayOptions`)."""
@@ -158,8 +167,6 @@ class TrainConfig(Settings):
         super().validate()
         if self.backend is not None and self.backend not in BACKENDS:
             raise ValueError(f"backend must be one of {sorted(BACKENDS)}, got {self.backend!r}")
-        if self.backend == "processes" and self.num_workers < 1:
-            raise ValueError("backend=processes needs num_workers >= 1")
         check_overrides(self.env_overrides)
 
     # ------------------------------------------------------------------ derived views
@@ -181,6 +188,10 @@ class TrainConfig(Settings):
         for key in ("total_samples", "batch_ticks", "images"):
             if getattr(cfg, key) is None:
                 setattr(cfg, key, defaults[key])
+        if cfg.backend is None:
+            cfg.backend = "processes" if cfg.num_workers > 1 else defaults["backend"]
+        if cfg.backend == "processes" and cfg.num_workers == 0:
+            cfg.num_workers = cfg.num_envs
         if cfg.learner is None:
             cfg.learner = method.default_config()
         elif not isinstance(cfg.learner, method.config_class):
@@ -188,8 +199,6 @@ class TrainConfig(Settings):
                 f"method {cfg.method!r} takes a {method.config_class.__name__} section, "
                 f"got {type(cfg.learner).__name__}"
             )
-        if cfg.backend is None:
-            cfg.backend = "processes" if cfg.num_workers > 1 else "threads"
         if cfg.run_dir is None:
             cfg.run_dir = str(Path("runs") / cfg.task / cfg.method / f"seed{cfg.seed}")
         cfg.device = resolve_device(cfg.device)

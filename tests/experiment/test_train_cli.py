@@ -28,6 +28,7 @@ from maopg.tasks import task_names
 REPO = Path(__file__).resolve().parents[2]
 RUN = [
     "batch_ticks=60",
+    "backend=threads",  # every task, whatever its default (spawning workers costs seconds)
     "num_envs=2",
     "progress=false",
     "video=false",
@@ -95,6 +96,22 @@ def test_overrides_are_typed_and_checked(capsys):
     assert resolved.run_dir == os.path.join("runs", "tool_delivery", "sync-wait", "seed3")
     with pytest.raises(ValueError, match="unknown method"):
         TrainConfig(method="nope").resolved()
+
+
+@pytest.mark.parametrize(
+    ("task", "settings", "backend", "workers"),
+    [
+        ("tool_delivery", {}, "threads", 0),
+        ("water_filling", {}, "processes", 4),  # the task's default: one process per environment
+        ("water_filling", {"num_envs": 6}, "processes", 6),
+        ("water_filling", {"backend": "threads"}, "threads", 0),
+        ("tool_delivery", {"num_workers": 3}, "processes", 3),
+        ("tool_delivery", {"backend": "processes"}, "processes", 4),
+    ],
+)
+def test_the_backend_defaults_to_the_tasks_own(task, settings, backend, workers):
+    resolved = TrainConfig(task=task, **settings).resolved()
+    assert (resolved.backend, resolved.num_workers) == (backend, workers)
 
 
 @pytest.mark.parametrize(("task", "images"), [("tool_delivery", True), ("water_filling", False)])

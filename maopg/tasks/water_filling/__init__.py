@@ -12,7 +12,14 @@ register_task(
     scripted=f"{__name__}.scripted:scripted_policy",
     state_lines=f"{__name__}.display:state_lines",
     # The paper's batch size in low-level samples and its image observations.
-    train_defaults={"batch_ticks": 2000, "total_samples": 200_000, "images": True},
+    # Environments in worker processes, one each: faster than threads here, where the drone's
+    # 50 Hz Python controller holds the GIL (BENCHMARKS.md, "Training wall-clock").
+    train_defaults={
+        "batch_ticks": 2000,
+        "total_samples": 200_000,
+        "images": True,
+        "backend": "processes",
+    },
     # A run (RGB, 200K samples) takes 15–55 min on 2 cores: the minimum of 3 seeds.
     grid_seeds=(0, 1, 2),
     # Near the scripted heuristic (about −2.9e5; random options about −4.5e5: results/
