@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import os
 import sys
 import types
 from dataclasses import dataclass, field
@@ -53,6 +54,11 @@ GENERIC_DEFAULTS: dict[str, Any] = {
     "backend": "threads",
 }
 """For a task that declares no training defaults of its own (``register_task``)."""
+
+WORKERS_PER_CORE = 2
+"""The most worker processes per core that ``num_workers=0`` starts: enough for the operating
+system to even out uneven steps (``bench/lockstep.py``); each more holds its own MuJoCo models
+and GL context, so 32 environments do not start 32 processes."""
 
 LEGACY_FLAT_KEYS = frozenset(f.name for f in dataclasses.fields(PPOConfig))
 """MAPPO's hyper-parameters as the flat fields they were before the ``ppo`` section."""
@@ -97,12 +103,13 @@ class TrainConfig(Settings):
     ``bench/backends.py`` measures the gain), ``processes`` (``spawn`` workers) or ``ray``
     (Ray actors, on this machine or a cluster: the ``ray.*`` settings); default
     ``processes`` when ``num_workers`` > 1, else the task's default: ``threads``, or
-    ``processes`` for Water Filling, whose drone controller holds the GIL 50 times a tick
+    ``processes`` for Water Filling, whose drone controller takes the GIL 25 times a tick
     (BENCHMARKS.md, "Training wall-clock"). All give the same rollouts."""
     num_workers: int = setting(0, ge=0)
-    """Worker processes of the ``processes`` backend (0 = one per environment: the operating
-    system then balances option steps of uneven length over the cores, where a worker with
-    several environments waits for its slowest), actors of ``ray`` (0 = one), threads of
+    """Worker processes of the ``processes`` backend (0 = one per environment, at most
+    :data:`WORKERS_PER_CORE` per core: the operating system then balances option steps of
+    uneven length over the cores, where a worker stepping several environments in turn makes
+    the others wait; ``bench/lockstep.py``), actors of ``ray`` (0 = one), threads of
     ``threads`` (at least 2)."""
     ray: RayOptions = field(default_factory=RayOptions)
     """Where the ``ray`` backend's actors run (``ray.address=auto``; :class:`RayOptions`)."""
@@ -191,7 +198,7 @@ class TrainConfig(Settings):
         if cfg.backend is None:
             cfg.backend = "processes" if cfg.num_workers > 1 else defaults["backend"]
         if cfg.backend == "processes" and cfg.num_workers == 0:
-            cfg.num_workers = cfg.num_envs
+            cfg.num_workers = min(cfg.num_envs, WORKERS_PER_CORE * (os.cpu_count() or 1))
         if cfg.learner is None:
             cfg.learner = method.default_config()
         elif not isinstance(cfg.learner, method.config_class):

@@ -17,7 +17,7 @@ import pytest
 import torch
 
 from maopg.env.rollout import run_episode
-from maopg.experiment.config import TrainConfig, parse_overrides
+from maopg.experiment.config import WORKERS_PER_CORE, TrainConfig, parse_overrides
 from maopg.experiment.loading import load_trained
 from maopg.experiment.methods import get_method, method_names
 from maopg.experiment.run_dir import TIMING_COLUMNS
@@ -98,15 +98,20 @@ def test_overrides_are_typed_and_checked(capsys):
         TrainConfig(method="nope").resolved()
 
 
+PER_ENV = min(4, WORKERS_PER_CORE * (os.cpu_count() or 1))
+"""``num_workers=0`` with ``processes`` and the default 4 environments: one worker each."""
+
+
 @pytest.mark.parametrize(
     ("task", "settings", "backend", "workers"),
     [
         ("tool_delivery", {}, "threads", 0),
-        ("water_filling", {}, "processes", 4),  # the task's default: one process per environment
-        ("water_filling", {"num_envs": 6}, "processes", 6),
+        ("water_filling", {}, "processes", PER_ENV),  # the task's default
+        ("water_filling", {"num_envs": 64}, "processes", WORKERS_PER_CORE * os.cpu_count()),
+        ("water_filling", {"num_envs": 1}, "processes", 1),
         ("water_filling", {"backend": "threads"}, "threads", 0),
         ("tool_delivery", {"num_workers": 3}, "processes", 3),
-        ("tool_delivery", {"backend": "processes"}, "processes", 4),
+        ("tool_delivery", {"backend": "processes"}, "processes", PER_ENV),
     ],
 )
 def test_the_backend_defaults_to_the_tasks_own(task, settings, backend, workers):
