@@ -216,14 +216,21 @@ def test_kill_and_resume_reproduces_the_uninterrupted_run(tmp_path, method, samp
 
 
 @pytest.mark.parametrize(
-    ("backend", "method"), [("threads", "async"), ("processes", "async"), ("threads", "async-rnn")]
+    ("task", "backend", "method"),
+    [
+        ("tool_delivery", "threads", "async"),
+        ("water_filling", "processes", "async"),  # its default: one worker per environment
+        ("tool_delivery", "threads", "async-rnn"),
+    ],
 )
-def test_every_backend_gives_the_same_curve_as_in_process(tmp_path, backend, method):
+def test_every_backend_gives_the_same_curve_as_in_process(tmp_path, task, backend, method):
     """From images; a recurrent run too (its GRU states live in the learner, never in the
     environments' workers)."""
-    common = ["--seed", "2", "--total-samples", "240", *tiny(method), "--images", "num_workers=2"]
+    common = ["--task", task, "--seed", "2", "--total-samples", "240", *tiny(method), "--images"]
     main([*common, "--run-dir", str(tmp_path / "serial"), "backend=local"])
-    main([*common, "--run-dir", str(tmp_path / backend), f"backend={backend}"])
+    main([*common, "--run-dir", str(tmp_path / backend), f"backend={backend}", "num_workers=0"])
+    if backend == "processes":  # num_workers=0: one worker per environment (num_envs=2)
+        assert load_checkpoint(tmp_path / backend / "final.pt")["config"]["num_workers"] == 2
     serial = _deterministic(_rows(tmp_path / "serial"))
     assert serial == _deterministic(_rows(tmp_path / backend))
 
