@@ -9,7 +9,9 @@ tick counts of every step). Figures are low-level ticks per second, median over 
 
 ``local`` steps the environments one after another, ``threads`` on 2 threads of this process
 (``mj_step`` and rendering release the GIL), ``processes`` in 2 ``spawn``ed workers
-(observations cross a pipe), ``ray`` in 2 Ray actors of a local Ray instance started once for
+(observations cross a pipe), ``processes×4`` in 4, one per environment (Water Filling's
+default backend: the operating system evens out option steps of uneven length over the cores,
+``bench/lockstep.py``), ``ray`` in 2 Ray actors of a local Ray instance started once for
 the whole benchmark (observations cross each actor's TCP connection, ``ray.direct``), and
 ``ray×1`` in one actor holding all 4 environments: it steps them one after another like
 ``local``, so its ratio to ``local`` is the Ray backend's own overhead at the same number of
@@ -36,6 +38,7 @@ COLUMNS: dict[str, tuple[str, int, dict[str, bool]]] = {
     "local": ("local", 0, {}),
     "threads": ("threads", 2, {}),
     "processes": ("processes", 2, {}),
+    "processes×4": ("processes", 4, {}),
     "ray": ("ray", 2, {}),
     "ray×1": ("ray", 1, {}),
     "ray×1 calls": ("ray", 1, {"direct": False}),
@@ -97,8 +100,8 @@ def main() -> None:
     print(conditions)
     print(
         f"- 4 environments, {args.steps} option steps, {args.rounds} rounds; 2 threads, "
-        "processes or Ray actors (`ray×1`: one actor with all 4 environments; `calls`: "
-        "`ray.direct=false`)\n"
+        "processes or Ray actors (`processes×4`: one process per environment; `ray×1`: one "
+        "actor with all 4 environments; `calls`: `ray.direct=false`)\n"
     )
     others = columns[1:]
     print(f"| task | observations | local ticks/s | {' | '.join(others)} | identical rollouts |")
