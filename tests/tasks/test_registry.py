@@ -30,6 +30,7 @@ def test_built_in_tasks_declare_what_the_project_looks_up() -> None:
         "batch_ticks": 2000,
         "total_samples": 200_000,
         "images": True,
+        "backend": "processes",
     }
     assert wf.grid_seeds == (0, 1, 2) and wf.threshold == -300_000.0
     assert dict(wf.grid_overrides) == {"mac-dqn": ("dqn.buffer_size=10000",)}
