@@ -2,16 +2,16 @@
 
 Run: ``.venv/bin/python bench/train_speed_wf.py [--precision bf16] [--workers 4] [--seed 1]
 [--run-dir DIR]``. Target (issue 16): 200K samples of `async` (64 px cameras on both robots,
-command-line defaults but ``precision`` and the backend) in ≤ 15 minutes on 2 cores, with a learning
-curve within the noise of the committed grid's (results/runs/water_filling/async, seeds 0-2,
-trained by the code before the image bank and the threaded backend: 26.0, 35.2 and 26.0 min,
-in ``fp32``). ``--precision bf16`` runs the CNNs in bfloat16 (the ``precision`` setting), which
-is where most of an update's time goes; the conditions list whether this CPU has bf16
+command-line defaults but ``precision`` and the backend) in ≤ 15 minutes on 2 cores, with a
+learning curve within the noise of the committed grid's (results/runs/water_filling/async, seeds
+0-2, trained by the code before the image bank and the threaded backend: 26.0, 35.2 and 26.0
+min, in ``fp32``). ``--precision bf16`` runs the CNNs in bfloat16 (the ``precision`` setting),
+which is where most of an update's time goes; the conditions list whether this CPU has bf16
 instructions. ``--workers N`` steps the environments in N spawned processes (N = 4, one per
 environment, is Water Filling's default backend); without it they step on threads, the default
-before it. The backend changes no number of the run, only its wall-clock.
-``--seed`` (default 0) trains another seed: one seed's final return outside the grid's range
-cannot tell the code's effect from the seed's noise.
+before it. The backend changes no number of the run, only its wall-clock. ``--seed`` (default 0)
+trains another seed: one seed's final return outside the grid's range cannot tell the code's
+effect from the seed's noise.
 
 A short run cannot give the verdict: cameras render and the CNN runs at every decision point,
 and the policy makes more decisions as it learns (about 350-400 per 1,000 ticks untrained,

@@ -104,7 +104,7 @@ class TrainConfig(Settings):
     (Ray actors, on this machine or a cluster: the ``ray.*`` settings); default
     ``processes`` when ``num_workers`` > 1, else the task's default: ``threads``, or
     ``processes`` for Water Filling, whose drone controller takes the GIL 25 times a tick
-    (BENCHMARKS.md, "Training wall-clock"). All give the same rollouts."""
+    (``bench/backends.py``, ``bench/lockstep.py``). All give the same rollouts."""
     num_workers: int = setting(0, ge=0)
     """Worker processes of the ``processes`` backend (0 = one per environment, at most
     :data:`WORKERS_PER_CORE` per core: the operating system then balances option steps of

@@ -13,7 +13,8 @@ register_task(
     state_lines=f"{__name__}.display:state_lines",
     # The paper's batch size in low-level samples and its image observations.
     # Environments in worker processes, one each: faster than threads here, where the drone's
-    # 50 Hz Python controller holds the GIL (BENCHMARKS.md, "Training wall-clock").
+    # 50 Hz Python controller takes the GIL and option steps vary in length (BENCHMARKS.md,
+    # "Vector-environment backends, with one process per environment", bench/lockstep.py).
     train_defaults={
         "batch_ticks": 2000,
         "total_samples": 200_000,
