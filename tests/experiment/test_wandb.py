@@ -65,10 +65,26 @@ def _records(path: Path):
             yield record
 
 
+def _run_files(run_dir: Path) -> list[Path]:
+    """The run's offline W&B files (one per start of the run), each once it holds its exit
+    record: W&B's service process writes a run's last records after ``finish()`` has returned,
+    which on a loaded machine can take a moment (the suite saw an exit record missing once, and
+    a resumed run's last history rows once)."""
+    deadline = time.monotonic() + 30.0
+    while True:
+        paths = sorted(run_dir.glob("wandb/offline-run-*/run-*.wandb"))
+        finished = all(
+            any(r.WhichOneof("record_type") == "exit" for r in _records(path)) for path in paths
+        )
+        if finished or time.monotonic() > deadline:
+            return paths
+        time.sleep(0.2)
+
+
 def _history(run_dir: Path) -> list[dict[str, object]]:
     """Every history row of every start of the run (W&B writes one folder per start)."""
     rows = []
-    for path in sorted(run_dir.glob("wandb/offline-run-*/run-*.wandb")):
+    for path in _run_files(run_dir):
         for record in _records(path):
             if record.WhichOneof("record_type") == "history":
                 rows.append(
@@ -82,7 +98,7 @@ def _history(run_dir: Path) -> list[dict[str, object]]:
 
 def _summary_and_config(run_dir: Path) -> tuple[dict[str, object], dict[str, object]]:
     summary, config = {}, {}
-    for path in sorted(run_dir.glob("wandb/offline-run-*/run-*.wandb")):
+    for path in _run_files(run_dir):
         for record in _records(path):
             kind = record.WhichOneof("record_type")
             if kind == "summary":
@@ -175,21 +191,14 @@ def test_wandb_without_an_account_is_one_line_and_leaves_no_run(tmp_path):
     assert "Traceback" not in done.stderr and not run_dir.exists()
 
 
-def _exit_codes(run_dir: Path, runs: int) -> list[int]:
-    """The exit codes of the offline W&B runs in ``run_dir``, once ``runs`` of them have one:
-    W&B's service process writes a run's exit record after ``finish()`` has returned, which on
-    a loaded machine can take a moment (the suite saw it missing once)."""
-    deadline = time.monotonic() + 30.0
-    while True:
-        codes = [
-            record.exit.exit_code
-            for path in sorted(run_dir.glob("wandb/offline-run-*/run-*.wandb"))
-            for record in _records(path)
-            if record.WhichOneof("record_type") == "exit"
-        ]
-        if len(codes) >= runs or time.monotonic() > deadline:
-            return codes
-        time.sleep(0.2)
+def _exit_codes(run_dir: Path) -> list[int]:
+    """The exit codes of the offline W&B runs in ``run_dir``, one per start of the run."""
+    return [
+        record.exit.exit_code
+        for path in _run_files(run_dir)
+        for record in _records(path)
+        if record.WhichOneof("record_type") == "exit"
+    ]
 
 
 def test_a_run_whose_after_training_steps_fail_ends_its_wandb_run_failed(tmp_path, monkeypatch):
@@ -203,8 +212,8 @@ def test_a_run_whose_after_training_steps_fail_ends_its_wandb_run_failed(tmp_pat
     run_dir = tmp_path / "run"
     with pytest.raises(RuntimeError, match="the evaluation broke"):
         main([*RUN, *QUIET, "--total-samples", "60", "--run-dir", str(run_dir), "--debug"])
-    assert _exit_codes(run_dir, 1) == [1]
+    assert _exit_codes(run_dir) == [1]
     assert not (run_dir / "done.json").exists()
     monkeypatch.undo()
     assert main([*RUN, *QUIET, "--total-samples", "60", "--run-dir", str(run_dir), "--resume"]) == 0
-    assert _exit_codes(run_dir, 2) == [1, 0]
+    assert _exit_codes(run_dir) == [1, 0]
