@@ -7,8 +7,9 @@ choosing agent ``u_1 < u_2 < ... < u_k`` (the choosing agents in the spec's agen
 
     π(o^U | c, z) = Π_k π(o^{u_k} | z, c, o^{u_1}, ..., o^{u_{k-1}})
 
-Each factor is one shared head over ``[features(z), identity of the agent, who chooses, what
-every other agent is known to do]``: a continuing agent's running option, an earlier choosing
+Each factor is one shared head over ``[features(z), features(z^{u_k}), identity of the agent,
+who chooses, what every other agent is known to do]``: the joint observation's features and
+the agent's own observation's, then a continuing agent's running option, an earlier choosing
 agent's drawn option, or "not decided yet" for the later ones. The chain rule is exact, so
 this represents every conditional the product categorical can (a correlated joint too:
 ``tests/policy/test_autoregressive.py`` fits one), at a cost linear in the number of agents.
@@ -46,11 +47,25 @@ from maopg.policy.networks import POLICY_HEAD_GAIN, EncodedPolicy
 
 
 class AutoregressivePolicy(EncodedPolicy):
-    """Joint observation → features; one shared factor head per choosing agent (module doc).
+    """Observations → features; one shared factor head per choosing agent (module doc).
 
-    ``recurrent``: a GRU between the encoder and the factors, one joint state advancing at every
-    decision point (the factors of one point share its features, as without memory).
+    Factor ``u_k`` reads the joint features of ``z`` and the features of agent ``u_k``'s own
+    observation ``z^{u_k}`` (one :class:`~maopg.policy.encoders.LocalEncoder` per agent): both
+    are functions of ``z``, so this is still the paper's ``π(o^{u_k} | z, c, o^{u_<k})``, and
+    the chain rule stays exact. Why the agent's own features: with the joint features alone,
+    one shared head must pull each agent's view out of a single summary of the whole team,
+    and on Tool Delivery the policy could then settle where no Fetch ever passes (return −150)
+    on one seed of five at the paper's size and on one of three in a team of eight, where
+    ``partial-ar``, reading local features only, never did (results/chain-rule/README.md).
+
+    ``recurrent``: a GRU per encoder — the joint state advances at every decision point, agent
+    ``i``'s own state only where agent ``i`` chooses (as in :class:`PartialFactoredPolicy`).
     """
+
+    sees_joint = True
+    """Whether a factor reads the joint features beside its agent's own."""
+    sees_earlier_choices = True
+    """Whether a factor sees the options drawn before it in the step (the chain rule)."""
 
     def __init__(
         self,
@@ -64,7 +79,11 @@ class AutoregressivePolicy(EncodedPolicy):
         super().__init__()
         self.option_counts = spec.option_counts
         n = len(self.option_counts)
-        width = self._build_encoders(spec, hidden=hidden, layers=layers, **encoder_kw)
+        encoder_kw |= {"hidden": hidden, "layers": layers}
+        self.encoder = JointEncoder(spec, **encoder_kw) if self.sees_joint else None
+        self.encoders = nn.ModuleList(LocalEncoder(spec, i, **encoder_kw) for i in range(n))
+        size = self.encoders[0].out_dim
+        width = size + (self.encoder.out_dim if self.encoder is not None else 0)
         # Agent j's known option as a one-hot over K_j + 1 slots, the last meaning "not decided".
         slots = [k + 1 for k in self.option_counts]
         self.register_buffer("offsets", torch.tensor([0, *slots[:-1]]).cumsum(0), persistent=False)
@@ -77,28 +96,15 @@ class AutoregressivePolicy(EncodedPolicy):
         init_orthogonal(self.factor, math.sqrt(2.0))
         self.head = nn.Linear(hidden, max(self.option_counts))
         init_orthogonal(self.head, POLICY_HEAD_GAIN)
-        self.memory = OptionMemory(width, slots=self.slots) if recurrent else None
-
-    slots = 1
-    """Memory slots: one joint state."""
-    sees_earlier_choices = True
-    """Whether a factor sees the options drawn before it in the step (the chain rule)."""
-
-    def _build_encoders(self, spec: EnvSpec, **encoder_kw) -> int:
-        """Build the encoders; returns the width of the features a factor sees."""
-        self.encoder = JointEncoder(spec, **encoder_kw)
-        return self.encoder.out_dim
-
-    def factor_features(self, features: Tensor, agents: Tensor) -> Tensor:
-        """``[B, A, F]``: the features factor ``a`` sees — the joint ones, for every agent."""
-        b, width = features.shape
-        return features.unsqueeze(1).expand(b, len(agents), width)
+        memory_slots = n + (self.encoder is not None)
+        self.memory = OptionMemory(size, slots=memory_slots) if recurrent else None
 
     def factor_logits(
         self, features: Tensor, choosing: Tensor, known: Tensor, agents: Tensor
     ) -> Tensor:
         """``[B, A, max K]`` logits of the factors of ``agents`` (``int64 [A]``).
 
+        ``features`` ``[B, N, F]``: what each agent's factor reads (:meth:`conditional`).
         ``known`` ``int64 [B, A, N]``: for factor ``a``, what each agent is known to do (its
         option, or its ``K_j`` for "not decided yet").
         """
@@ -108,7 +114,7 @@ class AutoregressivePolicy(EncodedPolicy):
         identity = nn.functional.one_hot(agents, n).float().expand(b, a, n)
         inputs = torch.cat(
             [
-                self.factor_features(features, agents),
+                features[:, agents],
                 identity,
                 choosing.float().unsqueeze(1).expand(b, a, n),
                 one_hot,
@@ -118,12 +124,29 @@ class AutoregressivePolicy(EncodedPolicy):
         return self.head(self.factor(inputs))
 
     def encode(self, obs: ObsBatch) -> list[Tensor]:
-        return [self.encoder(obs)]
+        """The joint features first (if read), then every agent's own."""
+        local = [encoder(obs) for encoder in self.encoders]
+        return local if self.encoder is None else [self.encoder(obs), *local]
+
+    def advancing(self, choosing: Tensor) -> Tensor:
+        """The joint slot at every point; agent ``i``'s own slot only where ``i`` chooses."""
+        own = choosing.bool()
+        if self.encoder is None:
+            return own
+        return torch.cat([torch.ones_like(own[:, :1]), own], dim=1)
 
     def conditional(
         self, features: list[Tensor], choosing: Tensor, running: Tensor, available: Tensor
     ) -> AutoregressiveConditional:
-        return AutoregressiveConditional(self, features[0], choosing, running, available)
+        """Stack what each factor reads, ``[B, N, F]``: its agent's own features, after the
+        joint ones where the policy reads them."""
+        if self.encoder is None:
+            stacked = torch.stack(features, dim=1)
+        else:
+            joint, *local = features
+            own = torch.stack(local, dim=1)
+            stacked = torch.cat([joint.unsqueeze(1).expand(-1, own.shape[1], -1), own], dim=-1)
+        return AutoregressiveConditional(self, stacked, choosing, running, available)
 
 
 class PartialFactoredPolicy(AutoregressivePolicy):
@@ -135,39 +158,13 @@ class PartialFactoredPolicy(AutoregressivePolicy):
     marginalises the other choosing agents out, so what agent ``i`` draws from is exactly such
     a marginal; this parameterises that marginal directly, with one shared factor head (and the
     agent's identity) over per-agent encoders, so its cost is linear in the team size. As in the
-    paper the choosing agents draw independently given ``c``: :attr:`sees_earlier_choices` is
-    off, and the entropy along a joint is the exact joint entropy. ``recurrent``: one state per
-    agent, advancing only at that agent's own decisions.
+    paper the choosing agents draw independently given ``c``: neither the joint features nor
+    the earlier draws are read, and the entropy along a joint is the exact joint entropy.
+    ``recurrent``: one state per agent, advancing only at that agent's own decisions.
     """
 
+    sees_joint = False
     sees_earlier_choices = False
-
-    @property
-    def slots(self) -> int:  # type: ignore[override]
-        """One memory slot per agent."""
-        return len(self.option_counts)
-
-    def _build_encoders(self, spec: EnvSpec, **encoder_kw) -> int:
-        self.encoders = nn.ModuleList(
-            LocalEncoder(spec, i, **encoder_kw) for i in range(spec.num_agents)
-        )
-        return self.encoders[0].out_dim
-
-    def encode(self, obs: ObsBatch) -> list[Tensor]:
-        return [encoder(obs) for encoder in self.encoders]
-
-    def advancing(self, choosing: Tensor) -> Tensor:
-        return choosing.bool()
-
-    def factor_features(self, features: Tensor, agents: Tensor) -> Tensor:
-        """Agent ``a``'s own features ``[B, A, F]`` (``features`` is ``[B, N, F]``)."""
-        return features[:, agents]
-
-    def conditional(
-        self, features: list[Tensor], choosing: Tensor, running: Tensor, available: Tensor
-    ) -> AutoregressiveConditional:
-        stacked = torch.stack(features, dim=1)
-        return AutoregressiveConditional(self, stacked, choosing, running, available)
 
 
 class AutoregressiveConditional:

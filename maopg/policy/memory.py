@@ -6,10 +6,10 @@ repeats itself. :class:`OptionMemory` sits between an encoder and a head and car
 state from one decision point to the next, as rMAPPO does per time step.
 
 **Slots.** The state is ``[B, S, H]``: one slot per encoder of the network — one for the
-centralized policy, the autoregressive policy and the critic (a joint state that advances at
-every joint decision point), one per agent for the partially centralized policy, whose slot
-``i`` advances only where agent ``i`` chooses (``advancing``), so an agent that continues keeps
-its state: its observation has not changed and it decided nothing.
+centralized policy and the critic (a joint state that advances at every joint decision point),
+one per agent for the partially centralized policy, whose slot ``i`` advances only where agent
+``i`` chooses (``advancing``), so an agent that continues keeps its state: its observation has
+not changed and it decided nothing; the autoregressive policy has both, the joint slot first.
 
 **Resets.** ``starts`` marks the first decision point of an episode (``ticks == 0``): the state
 is zeroed there before the point is read, so no history crosses an episode boundary, at

@@ -14,16 +14,29 @@ from maopg.env import make_env
 from maopg.env.vector import EnvConfig, SeededVectorEnv
 from maopg.learner import LearnerSetup, MAPPOLearner, PPOConfig
 from maopg.learner.mappo import autoregressive_policy, centralized_policy, partial_policy
-from maopg.policy import DistributionActor, PartiallyCentralizedPolicy
+from maopg.policy import (
+    AutoregressivePolicy,
+    DistributionActor,
+    PartialFactoredPolicy,
+    PartiallyCentralizedPolicy,
+)
 
 SHORT = {"max_ticks": 25}
 """Episodes of 25 ticks: several end inside a rollout, and inside training chunks."""
 
 
-def test_per_agent_states_freeze_while_an_agent_continues_and_restart_with_an_episode():
+@pytest.mark.parametrize(
+    ("policy_class", "joint_slots"),
+    [(PartiallyCentralizedPolicy, 0), (PartialFactoredPolicy, 0), (AutoregressivePolicy, 1)],
+)
+def test_per_agent_states_freeze_while_an_agent_continues_and_restart_with_an_episode(
+    policy_class, joint_slots
+):
+    """Agent i's own state advances only at its decisions; a joint state (the autoregressive
+    policy's, before the agents' own) at every decision point."""
     torch.manual_seed(0)
     env = make_env("tool_delivery", "continue", seed=0, overrides=SHORT)
-    policy = PartiallyCentralizedPolicy(env.spec, hidden=16, recurrent=True)
+    policy = policy_class(env.spec, hidden=16, recurrent=True)
     actor = DistributionActor(policy, greedy=False, seed=1)
     fresh = policy.initial_state(1)
     seen = {"frozen": 0, "advanced": 0, "restarts": 0}
@@ -41,7 +54,9 @@ def test_per_agent_states_freeze_while_an_agent_continues_and_restart_with_an_ep
                 torch.testing.assert_close(after, twin.state, rtol=0, atol=0)
                 seen["restarts"] += int(bool(before.abs().sum() > 0))
             else:
-                for agent, choosing in enumerate(point.choosing):
+                for slot in range(joint_slots):
+                    assert not torch.equal(after[0, slot], before[0, slot]), point.ticks
+                for agent, choosing in enumerate(point.choosing, start=joint_slots):
                     same = torch.equal(after[0, agent], before[0, agent])
                     assert same != bool(choosing), (point.ticks, agent, choosing)
                     seen["frozen" if same else "advanced"] += 1
