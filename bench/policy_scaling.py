@@ -105,8 +105,11 @@ def main() -> None:
     args = parser.parse_args()
     teams = [int(n) for n in args.agents.split(",")]
 
+    import torch
+
     from maopg.experiment.sysinfo import markdown
 
+    torch.set_num_threads(1)  # what every cell runs with, so the conditions print it
     print("### Policy cost against team size: product categorical vs autoregressive")
     print("(`bench/policy_scaling.py`)\n")
     print(markdown(gl=False))
