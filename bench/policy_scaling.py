@@ -9,7 +9,8 @@ log-probability and entropy of the sampled joint, and the backward pass — what
 point, acting and updating. The product categorical (:class:`CentralizedPolicy`, the ``async``
 policy) and the autoregressive one (:class:`AutoregressivePolicy`, ``async-ar``) see the same
 state observations (12 floats per agent), the same conditions (a random half of the agents
-choose, at least one) and the same network size.
+choose, at least one) and the same hidden width (the autoregressive policy adds a local
+encoder per agent).
 
 Each cell runs in a fresh process, so its peak memory is that process's high-water resident
 size above what it held once torch was imported and the inputs were made. A product categorical

@@ -40,7 +40,7 @@ from torch import Tensor, nn
 
 from maopg.env.contract import EnvSpec
 from maopg.policy.batch import ObsBatch
-from maopg.policy.conditional import agent_masks
+from maopg.policy.conditional import agent_masks, draw_multinomial
 from maopg.policy.encoders import JointEncoder, LocalEncoder, init_orthogonal
 from maopg.policy.memory import OptionMemory
 from maopg.policy.networks import POLICY_HEAD_GAIN, EncodedPolicy
@@ -54,9 +54,10 @@ class AutoregressivePolicy(EncodedPolicy):
     are functions of ``z``, so this is still the paper's ``π(o^{u_k} | z, c, o^{u_<k})``, and
     the chain rule stays exact. Why the agent's own features: with the joint features alone,
     one shared head must pull each agent's view out of a single summary of the whole team,
-    and on Tool Delivery the policy could then settle where no Fetch ever passes (return −150)
-    on one seed of five at the paper's size and on one of three in a team of eight, where
-    ``partial-ar``, reading local features only, never did (results/chain-rule/README.md).
+    and on Tool Delivery the policy could then settle where no Fetch ever passes: on one seed of
+    five at the paper's size (return −150) and on one of three in a team of eight (150, no tool
+    delivered), where ``partial-ar``, reading local features only, never did
+    (results/chain-rule/README.md).
 
     ``recurrent``: a GRU per encoder — the joint state advances at every decision point, agent
     ``i``'s own state only where agent ``i`` chooses (as in :class:`PartialFactoredPolicy`).
@@ -109,9 +110,9 @@ class AutoregressivePolicy(EncodedPolicy):
         option, or its ``K_j`` for "not decided yet").
         """
         b, a, n = known.shape
-        one_hot = torch.zeros(b, a, self.context)
+        one_hot = torch.zeros(b, a, self.context, device=known.device)
         one_hot.scatter_(-1, known + self.offsets, 1.0)
-        identity = nn.functional.one_hot(agents, n).float().expand(b, a, n)
+        identity = nn.functional.one_hot(agents.to(known.device), n).float().expand(b, a, n)
         inputs = torch.cat(
             [
                 features[:, agents],
@@ -199,7 +200,8 @@ class AutoregressiveConditional:
         a continuing agent's running option, an earlier choosing agent's ``joint`` entry,
         "not decided" (``K_j``) for itself and later choosing agents."""
         n = self.choosing.shape[-1]
-        earlier = torch.arange(n).unsqueeze(0) < agents.unsqueeze(1)  # [A, N]
+        device = self.choosing.device
+        earlier = torch.arange(n, device=device).unsqueeze(0) < agents.to(device).unsqueeze(1)
         if not self.policy.sees_earlier_choices:
             earlier = torch.zeros_like(earlier)
         known = ~self.choosing.unsqueeze(1) | (self.choosing.unsqueeze(1) & earlier)
@@ -220,7 +222,7 @@ class AutoregressiveConditional:
             rows = self.choosing[:, i]
             if not bool(rows.any()):
                 continue
-            agent = torch.tensor([i])
+            agent = torch.tensor([i], device=joint.device)
             logits = self.policy.factor_logits(
                 self.features, self.choosing, self._known(joint, agent), agent
             )
@@ -232,7 +234,7 @@ class AutoregressiveConditional:
         """``[B, N, max K]`` every agent's factor along ``joint``, in one batched pass (teacher
         forcing); rows of continuing agents are their one-hot (log-probability 0)."""
         joint = torch.where(self.choosing, joint, self.running)
-        agents = torch.arange(joint.shape[-1])
+        agents = torch.arange(joint.shape[-1], device=joint.device)
         logits = self.policy.factor_logits(
             self.features, self.choosing, self._known(joint, agents), agents
         )
@@ -240,9 +242,7 @@ class AutoregressiveConditional:
 
     # ------------------------------------------------------------------ the protocol
     def sample(self, generator: torch.Generator | None = None) -> Tensor:
-        return self._decode(
-            lambda lp: torch.multinomial(lp.exp(), 1, generator=generator).squeeze(-1)
-        )
+        return self._decode(lambda lp: draw_multinomial(lp.exp(), generator))
 
     def mode(self) -> Tensor:
         return self._decode(lambda lp: lp.argmax(dim=-1))

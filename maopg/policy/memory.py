@@ -9,7 +9,8 @@ state from one decision point to the next, as rMAPPO does per time step.
 centralized policy and the critic (a joint state that advances at every joint decision point),
 one per agent for the partially centralized policy, whose slot ``i`` advances only where agent
 ``i`` chooses (``advancing``), so an agent that continues keeps its state: its observation has
-not changed and it decided nothing; the autoregressive policy has both, the joint slot first.
+not changed and it decided nothing. The autoregressive policy (``async-ar``) has both, the
+joint slot first; ``partial-ar`` has the per-agent slots only.
 
 **Resets.** ``starts`` marks the first decision point of an episode (``ticks == 0``): the state
 is zeroed there before the point is read, so no history crosses an episode boundary, at

@@ -21,6 +21,7 @@ from maopg.policy import draw_multinomial
 CUDA = torch.cuda.is_available()
 METHODS = {
     "async": ["ppo.epochs=2"],
+    "async-ar": ["ppo.epochs=2"],
     "mac-dqn": ["dqn.learning_starts=60", "dqn.train_every=20"],
 }
 TINY = [

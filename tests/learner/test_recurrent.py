@@ -13,7 +13,12 @@ import torch
 from maopg.env import make_env
 from maopg.env.vector import EnvConfig, SeededVectorEnv
 from maopg.learner import LearnerSetup, MAPPOLearner, PPOConfig
-from maopg.learner.mappo import autoregressive_policy, centralized_policy, partial_policy
+from maopg.learner.mappo import (
+    autoregressive_policy,
+    centralized_policy,
+    partial_factored_policy,
+    partial_policy,
+)
 from maopg.policy import (
     AutoregressivePolicy,
     DistributionActor,
@@ -87,7 +92,9 @@ def _learner(envs: SeededVectorEnv, builder) -> MAPPOLearner:
     return MAPPOLearner(builder(envs.spec, hidden=16, layers=1, config=config), setup)
 
 
-@pytest.mark.parametrize("builder", [centralized_policy, partial_policy, autoregressive_policy])
+@pytest.mark.parametrize(
+    "builder", [centralized_policy, partial_policy, autoregressive_policy, partial_factored_policy]
+)
 def test_the_chunked_forward_equals_the_step_by_step_forward_of_collection(
     builder, update_both_ways
 ):
@@ -145,7 +152,11 @@ def test_the_chunked_forward_equals_the_step_by_step_forward_of_collection(
     stats = learner.ppo.update(batch, learner.setup.update_gen)
     assert stats["entropy"] > 0 and np.isfinite(stats["policy_loss"])
     for memory, old in zip(memories, before, strict=True):
-        assert any(not torch.equal(old[k], v) for k, v in memory.state_dict().items())
+        for slot, cell in enumerate(memory.cells):  # every slot's GRU learnt
+            changed = (
+                not torch.equal(old[f"cells.{slot}.{k}"], v) for k, v in cell.state_dict().items()
+            )
+            assert any(changed), slot
 
 
 def test_recurrent_policies_refuse_the_feed_forward_path():

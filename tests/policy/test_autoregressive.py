@@ -47,7 +47,8 @@ def random_conditions(counts: tuple[int, ...], batch: int, seed: int):
 
 
 POLICIES = {"chain": AutoregressivePolicy, "partial": PartialFactoredPolicy}
-"""The chain rule over the joint observation, and per-agent factors on local observations."""
+"""The chain rule over the joint and each agent's own observation, and per-agent factors on
+local observations only."""
 
 
 def build(counts: tuple[int, ...], seed: int = 0, kind: str = "chain") -> AutoregressivePolicy:
@@ -153,6 +154,29 @@ def test_gradients_reach_only_the_factors_of_choosing_agents():
     dist = policy.distribution(obs, choosing, running, available)
     dist.log_prob(joint).sum().backward()
     assert all(torch.isfinite(p.grad).all() for p in policy.parameters() if p.grad is not None)
+
+
+@pytest.mark.parametrize("kind", POLICIES)
+def test_an_agent_that_continues_everywhere_trains_none_of_its_own_encoder(kind):
+    """Agent i's own encoder feeds agent i's factor only: where agent 1 continues in every row,
+    the log-probability and entropy of the joint send it no gradient, while the choosing agents'
+    encoders (and the joint one, which every factor reads) get one."""
+    counts = TEAMS["three"]
+    policy = build(counts, kind=kind)
+    obs, choosing, running, available = random_conditions(counts, 16, seed=11)
+    choosing[:, 1] = False
+    choosing[:, 0] = True
+    dist = policy.distribution(obs, choosing, running, available)
+    joint = dist.sample(torch.Generator().manual_seed(12))
+    (dist.log_prob(joint).sum() + dist.entropy().sum()).backward()
+
+    def grad_norm(module: torch.nn.Module) -> float:
+        return sum(float(p.grad.abs().sum()) for p in module.parameters() if p.grad is not None)
+
+    assert grad_norm(policy.encoders[1]) == 0.0
+    assert grad_norm(policy.encoders[0]) > 0.0
+    if policy.encoder is not None:
+        assert grad_norm(policy.encoder) > 0.0
 
 
 def test_sync_rows_and_the_mode_and_entropy():
