@@ -169,6 +169,11 @@ def fitting(path: str | os.PathLike[str]) -> Iterator[None]:
         raise
     except (RuntimeError, KeyError, ValueError, TypeError) as err:
         detail = " ".join(str(err).split())
+        if "state_dict" in detail:  # a network of another architecture wrote it
+            detail = (
+                "its networks have another architecture (other settings, another method, or a "
+                f"maopg version whose networks differ from this one's): {detail}"
+            )
         raise CheckpointError(
             f"checkpoint {path} does not fit the run it is loaded into: {detail}"
         ) from err
