@@ -45,11 +45,12 @@ DEFAULT = [
 ]
 
 
-def marginals(dist, counts: tuple[int, ...]) -> list[torch.Tensor]:
+def marginals(dist) -> list[torch.Tensor]:
     """Each agent's ``[K_i]`` option probabilities at a one-row point (module doc)."""
     if isinstance(dist, FactoredConditional):
         return [lp[0].exp() for lp in dist.agent_log_probs]
     if isinstance(dist, ConditionalJoint):
+        counts = dist.option_counts
         joint = dist.probs[0].view(counts)
         return [
             joint.sum(dim=[d for d in range(len(counts)) if d != i]) for i in range(len(counts))
@@ -65,7 +66,6 @@ def choices(
     or ``greedy``."""
     trained = load_trained(checkpoint)
     policy, env = trained.policy.eval(), trained.make_env(0)
-    counts = tuple(trained.spec.option_counts)
     generator = torch.Generator().manual_seed(0)
     seen: dict[str, list[tuple[float, bool, bool]]] = {a: [] for a in trained.spec.agent_names}
     try:
@@ -78,9 +78,10 @@ def choices(
                         obs, *stack_conditions([point]), state, episode_starts([point])
                     )
                     joint = (dist.mode() if greedy else dist.sample(generator))[0].numpy()
+                probs = marginals(dist)
                 for i, agent in enumerate(trained.spec.agent_names):
                     if point.choosing[i]:
-                        p = marginals(dist, counts)[i]
+                        p = probs[i]
                         last = int(point.running[i])
                         seen[agent].append(
                             (float(p.max()), int(p.argmax()) == last, int(joint[i]) == last)
