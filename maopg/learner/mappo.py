@@ -19,7 +19,6 @@ iterations, and in the checkpoint) and stores them per row; the update runs over
 
 from __future__ import annotations
 
-import functools
 import math
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
@@ -165,10 +164,18 @@ class _StepInputs:
         )
 
 
-@functools.cache
 def _critic_thread() -> ThreadPoolExecutor:
-    """The one thread every :class:`MAPPO` update runs its critic's steps on (idle between
-    updates; the actor's steps run on the caller's thread)."""
+    """A new thread for the critic's steps of one update, or of one collection (the actor's run
+    on the caller's thread).
+
+    New each time, not one for the process: the bits a thread computes a recurrent critic's
+    steps in depend on what it has computed before (measured, the cause inside torch not
+    traced: a run resumed from its checkpoint left the uninterrupted run's value loss in the
+    seventh digit at its first iteration, and a second ``async-rnn`` run in one process left the
+    first's curve at iteration 2). A thread that lives for one update or one collection has the
+    same past in an uninterrupted run, a resumed one and a run after other runs, so all three
+    give the same bits; starting it costs well under a millisecond. Feed-forward critics
+    compute the same bits either way."""
     return ThreadPoolExecutor(1, thread_name_prefix="maopg-critic")
 
 
@@ -299,26 +306,27 @@ class MAPPO:
         chunks = batch.chunks(cfg.chunk_length) if self.policy.recurrent else None
         size = len(batch) if chunks is None else len(chunks)
         num_minibatches = max(1, min(cfg.num_minibatches, size))
-        for _ in range(cfg.epochs):
-            # The generator is a CPU one (LearnerSetup.device): draw there, index on the device.
-            order = torch.randperm(size, generator=generator).to(advantages.device)
-            for index in order.tensor_split(num_minibatches):
-                if chunks is None:
-                    inputs = self._step_inputs(
-                        batch.rows(index), None, advantages[index], targets[index]
-                    )
-                else:
-                    inputs = self._step_inputs(batch, chunks[index], advantages, targets)
-                critic_job = _critic_thread().submit(self._critic_step, inputs)
-                try:
-                    stats = self._actor_step(inputs)
-                except BaseException:
-                    critic_job.exception()  # let the critic's step end; the actor's error wins
-                    raise
-                stats["value_loss"] = critic_job.result()
-                for key, value in stats.items():
-                    sums[key] += value
-                updates += 1
+        with _critic_thread() as thread:
+            for _ in range(cfg.epochs):
+                # The generator is a CPU one (LearnerSetup.device): draw there, index on the device.
+                order = torch.randperm(size, generator=generator).to(advantages.device)
+                for index in order.tensor_split(num_minibatches):
+                    if chunks is None:
+                        inputs = self._step_inputs(
+                            batch.rows(index), None, advantages[index], targets[index]
+                        )
+                    else:
+                        inputs = self._step_inputs(batch, chunks[index], advantages, targets)
+                    critic_job = thread.submit(self._critic_step, inputs)
+                    try:
+                        stats = self._actor_step(inputs)
+                    except BaseException:
+                        critic_job.exception()  # let the critic's step end; the actor's error wins
+                        raise
+                    stats["value_loss"] = critic_job.result()
+                    for key, value in stats.items():
+                        sums[key] += value
+                    updates += 1
         require_finite_parameters(self.policy, "the actor")
         require_finite_parameters(self.critic, "the critic")
         return {key: total / updates for key, total in sums.items()}
@@ -468,63 +476,64 @@ class MAPPOLearner(Learner):
         values = values.cpu()
         acting = self._act(envs, on_device, policy_in, starts)
         ticks = 0
-        while ticks < self.setup.batch_ticks:
-            (choosing, running, available), dist, policy_out = acting
-            joint = dist.sample(self.setup.sample_gen)
-            log_prob = dist.log_prob(joint).cpu()
-            joint = joint.cpu()
-            results = envs.step(joint.numpy())
-            outcomes = [r.outcome for r in results]
-            ticks += int(sum(o.duration for o in outcomes))
-            next_obs = ObsBatch.from_decision_points(envs.points)
-            next_on_device = next_obs.to(device)
-            next_starts = episode_starts(envs.points)
-            # The critic values the new points on its own thread while the policy decides there
-            # (as in the update: each computes what it would alone, so the same bits).
-            valuing = _critic_thread().submit(
-                value_on_thread, next_on_device, critic_out, next_starts.to(device)
-            )
-            try:
-                if ticks < self.setup.batch_ticks:
-                    acting = self._act(envs, next_on_device, policy_out, next_starts)
-            except BaseException:
-                valuing.exception()  # let the critic's forward end; the policy's error wins
-                raise
-            next_values, next_critic_out = valuing.result()
-            next_values = next_values.cpu()
-            bootstrap = next_values.clone()
-            truncated = [e for e, o in enumerate(outcomes) if o.truncated]
-            if truncated:
-                final_points = [outcomes[e] for e in truncated]
-                finals = ObsBatch.from_decision_points(final_points)
-                carried = None if critic_out is None else critic_out[truncated]
-                final_values, _ = critic.step(
-                    finals.to(device), carried, episode_starts(final_points).to(device)
+        with _critic_thread() as thread:
+            while ticks < self.setup.batch_ticks:
+                (choosing, running, available), dist, policy_out = acting
+                joint = dist.sample(self.setup.sample_gen)
+                log_prob = dist.log_prob(joint).cpu()
+                joint = joint.cpu()
+                results = envs.step(joint.numpy())
+                outcomes = [r.outcome for r in results]
+                ticks += int(sum(o.duration for o in outcomes))
+                next_obs = ObsBatch.from_decision_points(envs.points)
+                next_on_device = next_obs.to(device)
+                next_starts = episode_starts(envs.points)
+                # The critic values the new points on its own thread while the policy decides
+                # there (as in the update: each computes what it would alone, the same bits).
+                valuing = thread.submit(
+                    value_on_thread, next_on_device, critic_out, next_starts.to(device)
                 )
-                bootstrap[truncated] = final_values.cpu()
-            rollout.add(
-                obs=obs,
-                choosing=choosing,
-                running=running,
-                available=available,
-                joint=joint,
-                log_prob=log_prob,
-                value=values,
-                reward_sum=np.array([o.reward for o in outcomes]),
-                reward_discounted=np.array([o.discounted_reward for o in outcomes]),
-                duration=np.array([o.duration for o in outcomes]),
-                terminated=np.array([o.terminated for o in outcomes]),
-                truncated=np.array([o.truncated for o in outcomes]),
-                next_value=bootstrap,
-                memory=None
-                if policy_in is None
-                else Memory(starts, policy_in.cpu(), critic_in.cpu()),  # type: ignore[union-attr]
-            )
-            rollout.episodes += [
-                dict(r.final.info["episode"]) for r in results if r.final is not None
-            ]
-            obs, on_device, values, starts = next_obs, next_on_device, next_values, next_starts
-            policy_in, critic_in, critic_out = policy_out, critic_out, next_critic_out
+                try:
+                    if ticks < self.setup.batch_ticks:
+                        acting = self._act(envs, next_on_device, policy_out, next_starts)
+                except BaseException:
+                    valuing.exception()  # let the critic's forward end; the policy's error wins
+                    raise
+                next_values, next_critic_out = valuing.result()
+                next_values = next_values.cpu()
+                bootstrap = next_values.clone()
+                truncated = [e for e, o in enumerate(outcomes) if o.truncated]
+                if truncated:
+                    final_points = [outcomes[e] for e in truncated]
+                    finals = ObsBatch.from_decision_points(final_points)
+                    carried = None if critic_out is None else critic_out[truncated]
+                    final_values, _ = critic.step(
+                        finals.to(device), carried, episode_starts(final_points).to(device)
+                    )
+                    bootstrap[truncated] = final_values.cpu()
+                rollout.add(
+                    obs=obs,
+                    choosing=choosing,
+                    running=running,
+                    available=available,
+                    joint=joint,
+                    log_prob=log_prob,
+                    value=values,
+                    reward_sum=np.array([o.reward for o in outcomes]),
+                    reward_discounted=np.array([o.discounted_reward for o in outcomes]),
+                    duration=np.array([o.duration for o in outcomes]),
+                    terminated=np.array([o.terminated for o in outcomes]),
+                    truncated=np.array([o.truncated for o in outcomes]),
+                    next_value=bootstrap,
+                    memory=None
+                    if policy_in is None
+                    else Memory(starts, policy_in.cpu(), critic_in.cpu()),  # type: ignore[union-attr]
+                )
+                rollout.episodes += [
+                    dict(r.final.info["episode"]) for r in results if r.final is not None
+                ]
+                obs, on_device, values, starts = next_obs, next_on_device, next_values, next_starts
+                policy_in, critic_in, critic_out = policy_out, critic_out, next_critic_out
         self.memory = {"policy": policy_in, "critic": critic_in}
         return rollout
 

@@ -206,13 +206,27 @@ def test_kill_and_resume_reproduces_the_uninterrupted_run(tmp_path, method, samp
     assert interrupted_rows < len(_rows(reference)), "the run finished before it was killed"
     assert not (killed / "final.pt").exists() and not (killed / "done.json").exists()
 
-    main(["--resume", "--run-dir", str(killed), "progress=false"])
+    # resumed in a fresh process, as after a crash: nothing of the reference run's process
+    # (the critic's thread once carried bits across, maopg.learner.mappo._critic_thread) helps
+    resume = [sys.executable, "-m", "train", "--resume", "--run-dir", str(killed)]
+    subprocess.run([*resume, "progress=false"], cwd=REPO, check=True, stdout=subprocess.DEVNULL)
     assert _deterministic(_rows(killed)) == _deterministic(_rows(reference))
     assert json.loads((killed / "done.json").read_text())["samples"] >= samples
     resumed, uninterrupted = (load_checkpoint(d / "final.pt") for d in (killed, reference))
     for network in ("policy", "critic"):
         for name, tensor in uninterrupted[network].items():
             assert torch.equal(resumed[network][name], tensor), (network, name)
+
+
+def test_a_second_run_in_one_process_gives_the_first_runs_curve(tmp_path):
+    """Nothing a run leaves in the process changes the next one's bits: the critic's thread
+    once did, for a recurrent critic (``maopg.learner.mappo._critic_thread``: then one thread
+    for the process, the second run left the first's curve at iteration 2)."""
+    common = ["--seed", "5", "--total-samples", "360", *tiny("async-rnn")]
+    for name in ("first", "second"):
+        main([*common, "--run-dir", str(tmp_path / name)])
+    first, second = (_deterministic(_rows(tmp_path / n)) for n in ("first", "second"))
+    assert first == second
 
 
 @pytest.mark.parametrize(

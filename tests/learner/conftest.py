@@ -18,6 +18,12 @@ from maopg.learner import MAPPO, TrainBatch
 class _Inline:
     """An executor that runs each job at once on the caller's thread."""
 
+    def __enter__(self) -> _Inline:
+        return self
+
+    def __exit__(self, *_: object) -> None:
+        return None
+
     def submit(self, call: Callable[..., Any], *args: Any) -> Future:
         future: Future = Future()
         try:
