@@ -307,6 +307,7 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
         overrides=args.settings,
         config_file=args.config,
         in_process=args.in_process,
+        jobs=args.jobs,
         dry_run=args.dry_run,
     )
     for path in written:
@@ -435,6 +436,13 @@ def build_parser() -> argparse.ArgumentParser:
         help="episodes per reference policy in evaluation.md",
     )
     p.add_argument("--in-process", action="store_true", help="train in this process")
+    p.add_argument(
+        "--jobs",
+        type=at_least(1),
+        default=1,
+        help="cells trained at once, each in its own process (default 1; several reproduce "
+        "invocations over one grid also share its cells out)",
+    )
     p.add_argument("--dry-run", action="store_true", help="list what would run; train nothing")
     p.add_argument("--no-train", action="store_true", help="only regenerate figures and tables")
     p.set_defaults(func=cmd_reproduce)

@@ -13,13 +13,15 @@ replay size) are declared by each task at registration (``grid_seeds``, ``grid_o
 the one command reproduces exactly the committed grid; the methods are the registry's (those
 it marks ``in_grid``).
 
-Runs are launched one after another as train command-line subprocesses (a crash or an
-out-of-memory kill loses one run, not the grid) or, with ``in_process=True``, by calling the
-train command line in this process (faster to start; used by the tests). An unknown task or
-method is an error before anything runs (a typo must not pass as an empty grid), and so is a bad
-override. ``overrides`` (``key=value`` train settings, as on the train command line) and a
-``config_file`` apply to every run and must be the same on every invocation of a grid, because
-a resumed run refuses a config that differs from its saved one. Grid runs
+Runs are launched as train command-line subprocesses (a crash or an out-of-memory kill loses
+one run, not the grid), one after another or ``jobs`` at a time, or, with ``in_process=True``,
+by calling the train command line in this process (faster to start; used by the tests). A
+cell's run directory is locked while it trains (:mod:`maopg.experiment.run_lock`), so several
+invocations over one grid share its cells out, and the one that ends last redraws the results.
+An unknown task or method is an error before anything runs (a typo must not pass as an empty
+grid), and so is a bad override. ``overrides`` (``key=value`` train settings, as on the train
+command line) and a ``config_file`` apply to every run and must be the same on every invocation
+of a grid, because a resumed run refuses a config that differs from its saved one. Grid runs
 record no rollout video (``video=false``; ``python -m eval video`` makes one from any finished
 run).
 
@@ -36,6 +38,7 @@ import hashlib
 import json
 import subprocess
 import sys
+import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -44,6 +47,7 @@ from maopg.experiment.evaluate import evaluate, results_table
 from maopg.experiment.methods import method_names
 from maopg.experiment.plots import curve_table, plot_task
 from maopg.experiment.run_dir import CONFIG, DONE, FINAL
+from maopg.experiment.run_lock import RunDirBusy, RunDirLock, child_environment, held_elsewhere
 from maopg.experiment.runs import RunData, differing_settings, discover_runs, task_settings
 from maopg.experiment.studies import PAPER, Study, StudyTask, get_study
 from maopg.experiment.tables import normalised_table, peak_table, threshold_table
@@ -131,32 +135,35 @@ def _train_args(
     ]
 
 
-def _launch(
-    cell: Cell,
-    run_dir: Path,
-    study: Study,
-    overrides: Sequence[str],
-    in_process: bool,
-    config_file: Path | None = None,
-) -> str:
-    """Train one cell to completion; returns ``done`` or ``failed: <why>``."""
-    args = _train_args(cell, run_dir, study, overrides, config_file)
-    if in_process:
-        from maopg.experiment.train_cli import main as train_main
-
-        try:
-            train_main(args)
-        except (Exception, SystemExit) as err:  # one broken run must not stop the grid
-            return f"failed: {type(err).__name__}: {err}"
-        return "done"
-    command = [sys.executable, "-m", "maopg.experiment.train_cli", *args]
-    proc = subprocess.run(command, check=False)
-    return "done" if proc.returncode == 0 else f"failed: exit code {proc.returncode}"
+BUSY = "busy: another process is training it"
+"""The outcome of a cell whose run directory another process holds (maopg.experiment.run_lock)."""
 
 
-def log_to_stderr(message: str) -> None:
-    """A ``log`` for :func:`run_grid` that keeps stdout free (for scripts printing a report)."""
-    print(message, file=sys.stderr)
+def _train_in_process(args: list[str]) -> str:
+    """Train one cell by calling the train command line here; ``done`` or ``failed: <why>``."""
+    from maopg.experiment.train_cli import main as train_main
+
+    try:
+        status = train_main(args)
+    except (Exception, SystemExit) as err:  # one broken run must not stop the grid
+        return f"failed: {type(err).__name__}: {err}"
+    return "done" if status == 0 else f"failed: exit status {status}"
+
+
+class _Launched:
+    """A cell training in a train subprocess that inherits the cell's lock."""
+
+    def __init__(self, name: str, args: list[str], lock: RunDirLock) -> None:
+        self.name, self.lock = name, lock
+        env, fds = child_environment(lock)
+        command = [sys.executable, "-m", "maopg.experiment.train_cli", *args]
+        self.proc = subprocess.Popen(command, env=env, pass_fds=fds)
+
+    def outcome(self) -> str:
+        """Wait for the subprocess, then let the cell go."""
+        code = self.proc.wait()
+        self.lock.release()
+        return "done" if code == 0 else f"failed: exit code {code}"
 
 
 def run_grid(
@@ -169,17 +176,28 @@ def run_grid(
     overrides: Sequence[str] = (),
     config_file: str | Path | None = None,
     in_process: bool = False,
+    jobs: int = 1,
     dry_run: bool = False,
     log=print,
 ) -> dict[Cell, str]:
     """Bring every cell of the grid to ``finished``; returns each cell's outcome:
-    ``skipped`` (already finished), ``done``, ``failed: ...`` or, with ``dry_run``, ``would
-    start`` / ``would resume``. ``tasks`` and ``methods`` default to the study's (the ``paper``
-    study: every registered task, the grid's methods,
-    :func:`~maopg.experiment.methods.grid_method_names`), ``seeds`` replaces every task's
-    seeds; ``overrides`` (``key=value``) and ``config_file`` (a YAML or JSON settings file) go
-    to every cell's train command line. Raises ``ValueError`` for a task or method that is not
-    registered or not part of the study, or a bad override."""
+    ``skipped`` (already finished), ``done``, ``failed: ...``, :data:`BUSY` (another process
+    trains it) or, with ``dry_run``, ``would start`` / ``would resume``. ``tasks`` and
+    ``methods`` default to the study's (the ``paper`` study: every registered task, the grid's
+    methods, :func:`~maopg.experiment.methods.grid_method_names`), ``seeds`` replaces every
+    task's seeds; ``overrides`` (``key=value``) and ``config_file`` (a YAML or JSON settings
+    file) go to every cell's train command line. ``jobs``: how many cells train at once, each in
+    its own subprocess (each with its own environments and workers: ``jobs`` times the cores of
+    one run). Raises ``ValueError`` for a task or method that is not registered or not part of
+    the study, or a bad override.
+
+    Each cell's run directory is locked before its training starts and until it ends, so
+    several invocations over the same grid (on one machine, or on machines sharing the run root
+    on a file system with ``flock``) share out its cells: each skips the cells another holds."""
+    if jobs < 1:
+        raise ValueError(f"jobs must be at least 1, got {jobs}")
+    if jobs > 1 and in_process:
+        raise ValueError("jobs > 1 trains cells in subprocesses; drop --in-process")
     study = get_study(study) if isinstance(study, str) else study
     tasks = list(tasks) if tasks is not None else [t.task for t in study.tasks]
     methods = list(methods) if methods is not None else list(study.methods)
@@ -202,19 +220,66 @@ def run_grid(
         for m in methods
     ]
     check_cells(cells, runs_root, study, overrides, config_file)
+    running: dict[Cell, _Launched] = {}
+
+    def settle(block: bool) -> None:
+        """Record the cells whose training has ended (with ``block``, wait for one first)."""
+        while True:
+            ended = [c for c, job in running.items() if job.proc.poll() is not None]
+            if ended or not block or not running:
+                break
+            time.sleep(0.5)
+        for cell in ended:
+            job = running.pop(cell)
+            outcomes[cell] = job.outcome()
+            log(f"{job.name}: {outcomes[cell]}")
+
     for k, cell in enumerate(cells, 1):
         run_dir = cell.run_dir(runs_root)
-        state = cell_state(run_dir)
         name = f"[{k}/{len(cells)}] {cell.task}/{cell.method}/seed{cell.seed}"
-        if state == "finished":
+        if cell_state(run_dir) == "finished":
             outcomes[cell] = "skipped"
+        elif held_elsewhere(run_dir):
+            outcomes[cell] = BUSY
         elif dry_run:
-            outcomes[cell] = "would resume" if state == "partial" else "would start"
+            outcomes[cell] = "would resume" if cell_state(run_dir) == "partial" else "would start"
+        elif in_process:  # train takes the lock itself, in this process
+            log(f"{name}: {_starting(run_dir)} in {run_dir}")
+            outcomes[cell] = _train_in_process(
+                _train_args(cell, run_dir, study, overrides, config_file)
+            )
         else:
-            log(f"{name}: {'resuming' if state == 'partial' else 'starting'} in {run_dir}")
-            outcomes[cell] = _launch(cell, run_dir, study, overrides, in_process, config_file)
+            while len(running) >= jobs:
+                settle(block=True)
+            run_dir.mkdir(parents=True, exist_ok=True)
+            lock = RunDirLock(run_dir)
+            try:
+                lock.acquire()
+            except RunDirBusy:  # another invocation took it a moment ago
+                outcomes[cell] = BUSY
+            else:
+                if cell_state(run_dir) == "finished":  # ... and finished it meanwhile
+                    lock.release()
+                    outcomes[cell] = "skipped"
+                else:
+                    log(f"{name}: {_starting(run_dir)} in {run_dir}")
+                    args = _train_args(cell, run_dir, study, overrides, config_file)
+                    running[cell] = _Launched(name, args, lock)
+                    settle(block=False)
+                    continue
         log(f"{name}: {outcomes[cell]}")
-    return outcomes
+    while running:
+        settle(block=True)
+    return {cell: outcomes[cell] for cell in cells}
+
+
+def _starting(run_dir: Path) -> str:
+    return "resuming" if cell_state(run_dir) == "partial" else "starting"
+
+
+def log_to_stderr(message: str) -> None:
+    """A ``log`` for :func:`run_grid` that keeps stdout free (for scripts printing a report)."""
+    print(message, file=sys.stderr)
 
 
 def write_results(
@@ -469,10 +534,18 @@ def reproduce(
     under ``runs_root`` (``eval_episodes=0`` skips ``evaluation.md``; ``reference_episodes``
     are the reference policies' episodes in it and in a normalised study's scores;
     ``baseline_root``: where the paper's runs are, default its run root). A ``dry_run``
-    (of :func:`run_grid`) only lists what would run: it writes nothing."""
+    (of :func:`run_grid`) only lists what would run: it writes nothing. Where other processes
+    still train some cells (:data:`BUSY`), the results wait for the one that ends last."""
     study = get_study(study) if isinstance(study, str) else study
     outcomes = run_grid(runs_root, study=study, **grid_kw) if train else {}
     if grid_kw.get("dry_run"):
+        return outcomes, []
+    root = Path(runs_root).resolve()
+    busy = [c for c, o in outcomes.items() if o == BUSY and held_elsewhere(c.run_dir(root))]
+    if busy:  # the invocation that ends last redraws the results
+        grid_kw.get("log", print)(
+            f"results not redrawn: {len(busy)} cell(s) still training in other processes"
+        )
         return outcomes, []
     runs = discover_runs([runs_root]) if Path(runs_root).exists() else []
     if study.baselines:

@@ -48,6 +48,7 @@ from maopg.experiment.run_dir import (
     write_done,
 )
 from maopg.experiment.run_eta import RunRates, about, estimate_run
+from maopg.experiment.run_lock import RunDirLock
 from maopg.experiment.sysinfo import BF16_FLAGS, bf16_instructions
 from maopg.experiment.tb_video import add_video
 from maopg.experiment.wandb_log import WandbMirror
@@ -178,23 +179,43 @@ def _check_run_dir(config: TrainConfig, resume: bool, overwrite: bool) -> TrainC
             )
         return before
     if saved.exists() and not overwrite:
-        raise FileExistsError(
-            f"run directory {run_dir} already holds a run; pass --resume to continue it, "
-            "--overwrite to start over, or choose another --run-dir"
-        )
+        raise FileExistsError(_holds_a_run(run_dir))
     return None
 
 
-def _open_run_dir(config: TrainConfig, *, overwrite: bool) -> WandbMirror | None:
+def _holds_a_run(run_dir: Path) -> str:
+    return (
+        f"run directory {run_dir} already holds a run; pass --resume to continue it, "
+        "--overwrite to start over, or choose another --run-dir"
+    )
+
+
+def _empty(run_dir: Path) -> None:
+    """Remove what ``run_dir`` holds, keeping the directory (and so its lock)."""
+    for entry in run_dir.iterdir():
+        if entry.is_dir() and not entry.is_symlink():
+            shutil.rmtree(entry)
+        else:
+            entry.unlink()
+
+
+def _open_run_dir(config: TrainConfig, lock: RunDirLock, *, overwrite: bool) -> WandbMirror | None:
     """Create (``overwrite``: empty) the run directory, open the run's W&B mirror
     (``logger=wandb``) and save the config; a checkpoint write that a kill interrupted left a
     temporary file, which goes. ``config.json`` comes last: it marks the directory as holding
-    a run, so a W&B start that fails (no login, no network) leaves none behind."""
+    a run, so a W&B start that fails (no login, no network) leaves none behind.
+
+    A directory created here is locked before its first file; if another run has taken it
+    since it was checked, that run's files stay as they are (:func:`_check_run_dir`'s error)."""
     run_dir = Path(config.run_dir)  # type: ignore[arg-type]
-    if overwrite and (run_dir / CONFIG).exists():
-        shutil.rmtree(run_dir)
     new = not run_dir.exists()
     run_dir.mkdir(parents=True, exist_ok=True)
+    if not lock.held:
+        lock.acquire()
+        if not overwrite and (run_dir / CONFIG).exists():
+            raise FileExistsError(_holds_a_run(run_dir))
+    if overwrite and (run_dir / CONFIG).exists():
+        _empty(run_dir)
     for name in (CHECKPOINT, FINAL):
         remove_stale_temporaries(run_dir / name)
     mirror = None
@@ -283,8 +304,16 @@ def train(config: TrainConfig, *, resume: bool = False, overwrite: bool = False)
     Everything that can be checked is checked before the first file is written — the config,
     whether the machine can render what the run renders, the run directory, the networks and
     learner it builds — so a failed start leaves nothing that blocks the corrected command.
+    The run directory stays locked while this runs (:mod:`maopg.experiment.run_lock`): another
+    process that names it stops with :class:`~maopg.experiment.run_lock.RunDirBusy`. An
+    existing directory is locked before what it holds is read, a new one once it is created.
     """
     config = config.resolved()
+    with RunDirLock(Path(config.run_dir)) as lock:  # type: ignore[arg-type]
+        return _train(config, lock, resume=resume, overwrite=overwrite)
+
+
+def _train(config: TrainConfig, lock: RunDirLock, *, resume: bool, overwrite: bool) -> Path:
     problem = config.rendering_problem()
     if problem:
         raise ValueError(problem)
@@ -315,7 +344,7 @@ def train(config: TrainConfig, *, resume: bool = False, overwrite: bool = False)
     mirror: WandbMirror | None = None
     try:
         learner = build_learner(config, envs.spec, sample_gen, update_gen)
-        mirror = _open_run_dir(config, overwrite=overwrite and saved is None)  # --resume wins
+        mirror = _open_run_dir(config, lock, overwrite=overwrite and saved is None)  # --resume wins
         if done is not None:
             # A larger budget: unfinished again until it is reached. The old weights go with
             # the marker, so a killed extension cannot pass its old policy off as the final one
