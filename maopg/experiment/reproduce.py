@@ -157,13 +157,24 @@ class _Launched:
         self.name, self.lock = name, lock
         env, fds = child_environment(lock)
         command = [sys.executable, "-m", "maopg.experiment.train_cli", *args]
-        self.proc = subprocess.Popen(command, env=env, pass_fds=fds)
+        try:
+            self.proc = subprocess.Popen(command, env=env, pass_fds=fds)
+        except BaseException:
+            lock.release()
+            raise
 
     def outcome(self) -> str:
         """Wait for the subprocess, then let the cell go."""
         code = self.proc.wait()
         self.lock.release()
         return "done" if code == 0 else f"failed: exit code {code}"
+
+    def stop(self) -> None:
+        """End the training now (the grid stops: an interrupt, an error); a killed run resumes
+        from its last checkpoint."""
+        self.proc.kill()
+        self.proc.wait()
+        self.lock.release()
 
 
 def run_grid(
@@ -192,8 +203,8 @@ def run_grid(
     the study, or a bad override.
 
     Each cell's run directory is locked before its training starts and until it ends, so
-    several invocations over the same grid (on one machine, or on machines sharing the run root
-    on a file system with ``flock``) share out its cells: each skips the cells another holds."""
+    several invocations over the same grid on one machine share out its cells: each skips the
+    cells another holds (the lock is one machine's, :mod:`maopg.experiment.run_lock`)."""
     if jobs < 1:
         raise ValueError(f"jobs must be at least 1, got {jobs}")
     if jobs > 1 and in_process:
@@ -234,42 +245,48 @@ def run_grid(
             outcomes[cell] = job.outcome()
             log(f"{job.name}: {outcomes[cell]}")
 
-    for k, cell in enumerate(cells, 1):
-        run_dir = cell.run_dir(runs_root)
-        name = f"[{k}/{len(cells)}] {cell.task}/{cell.method}/seed{cell.seed}"
-        if cell_state(run_dir) == "finished":
-            outcomes[cell] = "skipped"
-        elif held_elsewhere(run_dir):
-            outcomes[cell] = BUSY
-        elif dry_run:
-            outcomes[cell] = "would resume" if cell_state(run_dir) == "partial" else "would start"
-        elif in_process:  # train takes the lock itself, in this process
-            log(f"{name}: {_starting(run_dir)} in {run_dir}")
-            outcomes[cell] = _train_in_process(
-                _train_args(cell, run_dir, study, overrides, config_file)
-            )
-        else:
-            while len(running) >= jobs:
-                settle(block=True)
-            run_dir.mkdir(parents=True, exist_ok=True)
-            lock = RunDirLock(run_dir)
-            try:
-                lock.acquire()
-            except RunDirBusy:  # another invocation took it a moment ago
-                outcomes[cell] = BUSY
-            else:
-                if cell_state(run_dir) == "finished":  # ... and finished it meanwhile
-                    lock.release()
-                    outcomes[cell] = "skipped"
-                else:
+    try:
+        for k, cell in enumerate(cells, 1):
+            run_dir = cell.run_dir(runs_root)
+            name = f"[{k}/{len(cells)}] {cell.task}/{cell.method}/seed{cell.seed}"
+            if not (dry_run or in_process):
+                while len(running) >= jobs:  # the cell's state is read once a job is free
+                    settle(block=True)
+            if cell_state(run_dir) == "finished":
+                outcomes[cell] = "skipped"
+            elif dry_run or in_process:
+                if held_elsewhere(run_dir):
+                    outcomes[cell] = BUSY
+                elif dry_run:
+                    partial = cell_state(run_dir) == "partial"
+                    outcomes[cell] = "would resume" if partial else "would start"
+                else:  # train takes the lock itself, in this process
                     log(f"{name}: {_starting(run_dir)} in {run_dir}")
                     args = _train_args(cell, run_dir, study, overrides, config_file)
-                    running[cell] = _Launched(name, args, lock)
-                    settle(block=False)
-                    continue
-        log(f"{name}: {outcomes[cell]}")
-    while running:
-        settle(block=True)
+                    outcomes[cell] = _train_in_process(args)
+            else:
+                run_dir.mkdir(parents=True, exist_ok=True)
+                lock = RunDirLock(run_dir)
+                try:
+                    lock.acquire()
+                except RunDirBusy:  # another invocation trains it
+                    outcomes[cell] = BUSY
+                else:
+                    if cell_state(run_dir) == "finished":  # ... or finished it just now
+                        lock.release()
+                        outcomes[cell] = "skipped"
+                    else:
+                        log(f"{name}: {_starting(run_dir)} in {run_dir}")
+                        args = _train_args(cell, run_dir, study, overrides, config_file)
+                        running[cell] = _Launched(name, args, lock)
+                        settle(block=False)
+                        continue
+            log(f"{name}: {outcomes[cell]}")
+        while running:
+            settle(block=True)
+    finally:  # an interrupt or an error: no training outlives the grid that started it
+        for job in running.values():
+            job.stop()
     return {cell: outcomes[cell] for cell in cells}
 
 

@@ -1,23 +1,25 @@
 """One writer per run directory.
 
 ``train`` holds an exclusive lock on its run directory for as long as it runs, so a second
-``train`` (or a second ``reproduce`` on the same grid) that names the same directory stops with
-one line instead of interleaving two runs' rows and checkpoints, or deleting a live run with
-``--overwrite``; ``reproduce`` takes the lock of a cell before it launches the cell's training,
-so several ``reproduce`` invocations over one grid share out its cells instead of colliding.
+``train`` that names the same directory stops with one line instead of interleaving two runs'
+rows and checkpoints, or deleting a live run with ``--overwrite``; ``reproduce`` takes the lock
+of a cell before it launches the cell's training, so several ``reproduce`` invocations over one
+grid share out its cells (each skips the cells another holds) instead of colliding.
 
 Why ``flock`` on the directory itself: it writes nothing (a failed start leaves nothing behind),
 the kernel drops it when its holder exits however it dies (no stale lock after a kill), and
 ``--overwrite`` empties the directory rather than replacing it, so the lock stays on the one
 directory. A parent that took a cell's lock hands it to the training subprocess as an inherited
 descriptor named by :data:`INHERITED`, which the child adopts, so the cell is never unlocked
-between the two. Where the platform or the file system has no ``flock`` (Windows, some network
-file systems) runs go unlocked, as they did before.
+between the two. The lock is one machine's: a network file system does not share a directory's
+``flock`` between machines, so invocations on several machines must not share a run root. Where
+the platform or the file system has no ``flock`` (Windows) runs go unlocked, as they did before.
 """
 
 from __future__ import annotations
 
 import os
+import time
 from pathlib import Path
 from types import TracebackType
 
@@ -26,6 +28,9 @@ try:
 except ImportError:  # Windows: no flock
     fcntl = None  # type: ignore[assignment]
 
+TRIES, RETRY_S = 5, 0.05
+"""A held lock is tried again for a moment before it counts as busy: :func:`held_elsewhere`
+takes and drops it to look, and must not turn a start that meets it into a refusal."""
 INHERITED = "MAOPG_RUN_DIR_LOCK"
 """Environment variable: ``<descriptor>:<run directory>`` of a lock a parent process took for
 this process (``reproduce`` launching a cell)."""
@@ -60,18 +65,27 @@ class RunDirLock:
             return True
         if fcntl is None or not self.run_dir.is_dir():
             return False
-        fd = self._adopt() or os.open(self.run_dir, os.O_RDONLY)
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            os.close(fd)
-            raise RunDirBusy(
-                f"run directory {self.run_dir} is in use: another process is training in it; "
-                "wait for it to end, or choose another --run-dir"
-            ) from None
-        except OSError:  # this file system has no flock
-            os.close(fd)
-            return False
+        fd = self._adopt()
+        if fd is None:
+            opened = os.open(self.run_dir, os.O_RDONLY)
+            # Above the standard streams: a descriptor 0-2 handed to a child would be its stdin.
+            fd = fcntl.fcntl(opened, fcntl.F_DUPFD_CLOEXEC, 3)
+            os.close(opened)
+        for attempt in range(TRIES):
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                break
+            except BlockingIOError:
+                if attempt == TRIES - 1:
+                    os.close(fd)
+                    raise RunDirBusy(
+                        f"run directory {self.run_dir} is in use: another process is training "
+                        "in it; wait for it to end, or choose another --run-dir"
+                    ) from None
+                time.sleep(RETRY_S)  # perhaps only a probe (held_elsewhere) holding it briefly
+            except OSError:  # this file system has no flock
+                os.close(fd)
+                return False
         self._fd = fd
         return True
 
@@ -87,7 +101,10 @@ class RunDirLock:
             same = os.path.samestat(os.fstat(int(fd)), os.stat(self.run_dir))
         except OSError:
             return None
-        return int(fd) if same else None
+        if not same:
+            return None
+        os.set_inheritable(int(fd), False)  # this process's own children must not keep it
+        return int(fd)
 
     def release(self) -> None:
         if self._fd is not None:
@@ -118,11 +135,16 @@ def child_environment(lock: RunDirLock) -> tuple[dict[str, str], tuple[int, ...]
 
 
 def held_elsewhere(run_dir: Path) -> bool:
-    """Whether another holder has the lock of ``run_dir`` now."""
-    lock = RunDirLock(run_dir)
+    """Whether another holder has the lock of ``run_dir`` now (one try: a look, not a wait)."""
+    if fcntl is None or not Path(run_dir).is_dir():
+        return False
+    fd = os.open(run_dir, os.O_RDONLY)
     try:
-        lock.acquire()
-    except RunDirBusy:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
         return True
-    lock.release()
+    except OSError:  # no flock here: nothing can hold it
+        return False
+    finally:
+        os.close(fd)
     return False

@@ -199,21 +199,23 @@ def _empty(run_dir: Path) -> None:
             entry.unlink()
 
 
-def _open_run_dir(config: TrainConfig, lock: RunDirLock, *, overwrite: bool) -> WandbMirror | None:
+def _open_run_dir(
+    config: TrainConfig, lock: RunDirLock, *, overwrite: bool, new_run: bool
+) -> WandbMirror | None:
     """Create (``overwrite``: empty) the run directory, open the run's W&B mirror
     (``logger=wandb``) and save the config; a checkpoint write that a kill interrupted left a
     temporary file, which goes. ``config.json`` comes last: it marks the directory as holding
     a run, so a W&B start that fails (no login, no network) leaves none behind.
 
-    A directory created here is locked before its first file; if another run has taken it
-    since it was checked, that run's files stay as they are (:func:`_check_run_dir`'s error)."""
+    A directory created here is locked before its first file. A ``new_run`` checks again, under
+    the lock, that the directory holds no run: another process may have started one there since
+    :func:`_check_run_dir` looked (without ``overwrite``, that run is left as it is)."""
     run_dir = Path(config.run_dir)  # type: ignore[arg-type]
     new = not run_dir.exists()
     run_dir.mkdir(parents=True, exist_ok=True)
-    if not lock.held:
-        lock.acquire()
-        if not overwrite and (run_dir / CONFIG).exists():
-            raise FileExistsError(_holds_a_run(run_dir))
+    lock.acquire()
+    if new_run and not overwrite and (run_dir / CONFIG).exists():
+        raise FileExistsError(_holds_a_run(run_dir))
     if overwrite and (run_dir / CONFIG).exists():
         _empty(run_dir)
     for name in (CHECKPOINT, FINAL):
@@ -344,7 +346,8 @@ def _train(config: TrainConfig, lock: RunDirLock, *, resume: bool, overwrite: bo
     mirror: WandbMirror | None = None
     try:
         learner = build_learner(config, envs.spec, sample_gen, update_gen)
-        mirror = _open_run_dir(config, lock, overwrite=overwrite and saved is None)  # --resume wins
+        new_run = saved is None  # --resume wins over --overwrite
+        mirror = _open_run_dir(config, lock, overwrite=overwrite and new_run, new_run=new_run)
         if done is not None:
             # A larger budget: unfinished again until it is reached. The old weights go with
             # the marker, so a killed extension cannot pass its old policy off as the final one

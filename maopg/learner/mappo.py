@@ -166,17 +166,24 @@ class _StepInputs:
 
 def _critic_thread() -> ThreadPoolExecutor:
     """A new thread for the critic's steps of one update, or of one collection (the actor's run
-    on the caller's thread).
+    on the caller's thread), computing on the process's number of torch threads.
 
-    New each time, not one for the process: the bits a thread computes a recurrent critic's
-    steps in depend on what it has computed before (measured, the cause inside torch not
-    traced: a run resumed from its checkpoint left the uninterrupted run's value loss in the
-    seventh digit at its first iteration, and a second ``async-rnn`` run in one process left the
-    first's curve at iteration 2). A thread that lives for one update or one collection has the
-    same past in an uninterrupted run, a resumed one and a run after other runs, so all three
-    give the same bits; starting it costs well under a millisecond. Feed-forward critics
-    compute the same bits either way."""
-    return ThreadPoolExecutor(1, thread_name_prefix="maopg-critic")
+    Why the number is set there: a new thread starts at OpenMP's default (every core), and torch
+    applies ``torch.set_num_threads`` to a thread only lazily, at the first operation that asks
+    for it; a GRU's small steps never do. So a recurrent critic's first steps on a new thread ran
+    on two OpenMP threads and its later ones on one, and its bits depended on the thread's past
+    and on ``OMP_NUM_THREADS`` (measured: a recurrent run resumed in a new process left the
+    uninterrupted run's value loss in the seventh digit at its first iteration, and a second
+    ``async-rnn`` run in one process left the first's curve at iteration 2). Why a new thread
+    each time: nothing a thread holds outlives an update, whatever a later run in the process
+    sets; starting one costs well under a millisecond. Feed-forward critics reach the setting
+    in their first operation and compute the same bits as before."""
+    return ThreadPoolExecutor(1, thread_name_prefix="maopg-critic", initializer=_same_threads)
+
+
+def _same_threads() -> None:
+    """Apply the process's torch thread count to this thread now (see :func:`_critic_thread`)."""
+    torch.set_num_threads(torch.get_num_threads())
 
 
 class MAPPO:

@@ -229,6 +229,19 @@ def test_a_second_run_in_one_process_gives_the_first_runs_curve(tmp_path):
     assert first == second
 
 
+def test_a_recurrent_curve_does_not_depend_on_openmp_threads(tmp_path):
+    """The critic's thread computes on the run's torch threads, not OpenMP's default (a GRU's
+    small steps never made torch apply the setting to a new thread)."""
+    common = ["-m", "train", "--seed", "5", "--total-samples", "240", *tiny("partial-rnn")]
+    for name, omp in (("default", None), ("one", "1")):
+        env = {k: v for k, v in os.environ.items() if k != "OMP_NUM_THREADS"}
+        env |= {"OMP_NUM_THREADS": omp} if omp else {}
+        argv = [sys.executable, *common, "--run-dir", str(tmp_path / name)]
+        subprocess.run(argv, cwd=REPO, env=env, check=True, stdout=subprocess.DEVNULL)
+    default, one = (_deterministic(_rows(tmp_path / n)) for n in ("default", "one"))
+    assert default == one
+
+
 @pytest.mark.parametrize(
     ("task", "backend", "method"),
     [
