@@ -17,7 +17,8 @@ Runs are launched as train command-line subprocesses (a crash or an out-of-memor
 one run, not the grid), one after another or ``jobs`` at a time, or, with ``in_process=True``,
 by calling the train command line in this process (faster to start; used by the tests). A
 cell's run directory is locked while it trains (:mod:`maopg.experiment.run_lock`), so several
-invocations over one grid share its cells out, and the one that ends last redraws the results.
+invocations over one grid share its cells out, and one that ends with no cell held elsewhere
+redraws the results.
 An unknown task or method is an error before anything runs (a typo must not pass as an empty
 grid), and so is a bad override. ``overrides`` (``key=value`` train settings, as on the train
 command line) and a ``config_file`` apply to every run and must be the same on every invocation
