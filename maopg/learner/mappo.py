@@ -75,6 +75,15 @@ class PPOConfig(Settings):
     value_clip: float = setting(0.2, ge=0.0, infinite=True)
     huber_delta: float = setting(10.0, gt=0.0, infinite=True)
     ent_coef: float = 0.01
+    """The entropy bonus's weight (from the first update on, with ``ent_decay``)."""
+    ent_coef_end: float = setting(0.0, ge=0.0)
+    """With ``ent_decay``: the weight the bonus falls to, and keeps after ``ent_decay`` ticks."""
+    ent_decay: int = setting(0, ge=0)
+    """Ticks over which the entropy bonus's weight falls linearly from ``ent_coef`` to
+    ``ent_coef_end`` (as Mac-DQN's ε falls over ``dqn.eps_decay``); 0 keeps ``ent_coef``
+    throughout. The bonus keeps a policy soft; annealed, it lets the policy end sure of its
+    choices, so that its mode plays as well as its samples (results/memory/README.md, finding
+    4: a soft policy's mode can loop where its samples move on)."""
     value_coef: float = setting(1.0, ge=0.0)
     lr: float = setting(5e-4, gt=0.0)
     critic_lr: float = setting(5e-4, gt=0.0)
@@ -96,6 +105,13 @@ class PPOConfig(Settings):
     """Recurrent only: consecutive decision points per training chunk, the horizon of truncated
     backpropagation through time (rMAPPO's ``data_chunk_length``); minibatches are sets of
     chunks, each re-run from the state it was collected with."""
+
+    def entropy_coef(self, samples: int) -> float:
+        """The entropy bonus's weight in the update after ``samples`` ticks (``ent_decay``)."""
+        if self.ent_decay == 0:
+            return self.ent_coef
+        frac = min(1.0, samples / self.ent_decay)
+        return self.ent_coef + frac * (self.ent_coef_end - self.ent_coef)
 
 
 @dataclass
@@ -257,11 +273,11 @@ class MAPPO:
             targets[kept],
         )
 
-    def _actor_step(self, inputs: _StepInputs) -> dict[str, float]:
-        """One gradient step of the policy on PPO's clipped surrogate plus the entropy bonus."""
-        cfg = self.config
-        terms = inputs.actor_terms(cfg)
-        actor_loss = terms["policy_loss"] - cfg.ent_coef * terms["entropy"]
+    def _actor_step(self, inputs: _StepInputs, ent_coef: float) -> dict[str, float]:
+        """One gradient step of the policy on PPO's clipped surrogate plus the entropy bonus
+        weighted by ``ent_coef``."""
+        terms = inputs.actor_terms(self.config)
+        actor_loss = terms["policy_loss"] - ent_coef * terms["entropy"]
         self._descend(actor_loss, self.policy, self.policy_opt, "actor")
         return {key: term.item() for key, term in terms.items()}
 
@@ -282,10 +298,14 @@ class MAPPO:
         require_finite(norm, f"the {name}'s gradient norm")
         optimizer.step()
 
-    def update(self, batch: TrainBatch, generator: torch.Generator) -> dict[str, float]:
+    def update(
+        self, batch: TrainBatch, generator: torch.Generator, *, samples: int = 0
+    ) -> dict[str, float]:
         """Run ``epochs`` passes of ``num_minibatches`` shuffled minibatches over ``batch``: of
         its rows, or for a recurrent policy of its chunks of ``chunk_length`` consecutive
-        decision points of one environment (:meth:`TrainBatch.chunks`).
+        decision points of one environment (:meth:`TrainBatch.chunks`). ``samples``, the ticks
+        trained before this batch, sets the entropy bonus's weight
+        (:meth:`PPOConfig.entropy_coef`).
 
         Updates the value normaliser with the batch's returns first (MAPPO), so the critic's
         targets are normalised with statistics that include them. Returns mean statistics.
@@ -299,6 +319,7 @@ class MAPPO:
         what it would alone, in the same order — the same bits as one after the other.
         """
         cfg = self.config
+        ent_coef = cfg.entropy_coef(samples)
         if self.value_norm is not None:
             self.value_norm.update(batch.returns)
         targets = self.value_targets(batch.returns)
@@ -326,7 +347,7 @@ class MAPPO:
                         inputs = self._step_inputs(batch, chunks[index], advantages, targets)
                     critic_job = thread.submit(self._critic_step, inputs)
                     try:
-                        stats = self._actor_step(inputs)
+                        stats = self._actor_step(inputs, ent_coef)
                     except BaseException:
                         critic_job.exception()  # let the critic's step end; the actor's error wins
                         raise
@@ -443,7 +464,7 @@ class MAPPOLearner(Learner):
             self.value_norm, gamma=self.setup.gamma, lam=cfg.gae_lambda, form=cfg.discount
         )
         batch = rollout.training_batch(advantages, returns).to(self.device)
-        stats = self.ppo.update(batch, self.setup.update_gen)
+        stats = self.ppo.update(batch, self.setup.update_gen, samples=samples)
         variance = float(np.var(returns))
         explained = (
             float(1.0 - np.var(returns - values) / variance) if variance > 1e-12 else math.nan

@@ -99,3 +99,37 @@ def test_continuing_agents_do_not_move_the_ratio():
     altered.joint[:, 0] = (altered.joint[:, 0] + 1) % 3
     changed = learner.losses(altered, altered.advantages, altered.returns)
     torch.testing.assert_close(changed.policy, original.policy)
+
+
+def test_the_entropy_bonus_falls_linearly_over_ent_decay_ticks():
+    assert PPOConfig(ent_coef=0.02).entropy_coef(10**9) == 0.02  # ent_decay=0: constant
+    cfg = PPOConfig(ent_coef=0.02, ent_coef_end=0.004, ent_decay=1000)
+    assert cfg.entropy_coef(0) == 0.02
+    assert cfg.entropy_coef(500) == pytest.approx(0.012)
+    assert cfg.entropy_coef(1000) == cfg.entropy_coef(5000) == pytest.approx(0.004)
+
+
+def test_the_update_weighs_the_entropy_bonus_by_the_samples_trained():
+    """The same batch from the same weights: the update after ``ent_decay`` ticks (no bonus)
+    leaves a sharper policy than the first one (a large bonus), and equals an update with
+    ``ent_coef=0`` throughout to the last bit."""
+
+    def update(cfg: PPOConfig, samples: int) -> tuple[float, dict[str, torch.Tensor]]:
+        torch.manual_seed(0)
+        policy = CentralizedPolicy(SPEC, hidden=32)
+        critic = CentralCritic(SPEC, hidden=32)
+        batch = _fixed_batch(policy, critic)
+        MAPPO(policy, critic, ValueNorm(), cfg).update(
+            batch, torch.Generator().manual_seed(1), samples=samples
+        )
+        with torch.no_grad():
+            dist = policy.distribution(batch.obs, batch.choosing, batch.running, batch.available)
+        return float(dist.entropy().mean()), policy.state_dict()
+
+    annealed = PPOConfig(epochs=8, lr=5e-3, ent_coef=5.0, ent_coef_end=0.0, ent_decay=100)
+    soft, _ = update(annealed, samples=0)
+    sharp, weights = update(annealed, samples=100)
+    _, without = update(PPOConfig(epochs=8, lr=5e-3, ent_coef=0.0), samples=0)
+    assert sharp < soft - 0.05
+    for name, tensor in without.items():
+        assert torch.equal(weights[name], tensor), name
