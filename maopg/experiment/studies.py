@@ -167,6 +167,28 @@ def _teams() -> Study:
     )
 
 
+def _teams_canonical() -> Study:
+    """The control of ``teams`` on Tool Delivery: its team of eight and budget under the
+    canonical rules, where every option can be chosen at any time (no ``mask_options``). A pass
+    with nothing staged or a search that cannot find a tool then runs and wastes its ticks, as
+    in the paper's task; the question is whether ``async-ar`` still reaches 0.8 of the scripted
+    heuristic in 1M samples, or whether ``teams``' result needs the initiation sets."""
+    return Study(
+        "teams-canonical",
+        "async-ar on the Tool Delivery team of eight under the canonical rules (no masks)",
+        (
+            StudyTask(
+                "tool_delivery",
+                (0, 1, 2),
+                frozen(TEAM_OF_EIGHT["tool_delivery"]),
+                ("total_samples=1000000",),
+            ),
+        ),
+        ("async-ar",),
+        normalised=True,
+    )
+
+
 def _memory() -> Study:
     """Recurrent policies and critics on Water Filling from RGB (its defaults: 200K samples),
     beside the committed feed-forward runs of the same methods."""
@@ -192,5 +214,6 @@ def _chain_rule() -> Study:
 
 
 register_study("teams", _teams)
+register_study("teams-canonical", _teams_canonical)
 register_study("memory", _memory)
 register_study("chain-rule", _chain_rule)

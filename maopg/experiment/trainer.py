@@ -65,6 +65,7 @@ from maopg.learner import (
     restore_global_rng,
     save_checkpoint,
 )
+from maopg.policy.joint_size import building_for
 
 RESUMABLE_KEYS = (
     "total_samples",
@@ -109,7 +110,8 @@ def build_learner(
     environments of ``spec``: what :func:`train` learns with, and what a benchmark times."""
     method = get_method(config.method)
     size = {"hidden": config.hidden, "layers": config.layers}
-    policy = method.build_policy(spec, **size, config=config.learner)
+    with building_for(config.device):
+        policy = method.build_policy(spec, **size, config=config.learner)
     setup = LearnerSetup(
         spec=spec,
         config=config.learner,

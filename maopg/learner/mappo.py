@@ -57,6 +57,7 @@ from maopg.policy import (
     set_precision,
     stack_conditions,
 )
+from maopg.policy.joint_size import require_joint_head_fits
 from maopg.settings import Settings, setting
 
 
@@ -376,10 +377,26 @@ def recurrent_setting(config: Any) -> bool:
     return bool(getattr(config, "recurrent", False))
 
 
+PRODUCT_WAY_OUT = (
+    "the product categorical grows as ΠK_i; the chain-rule methods (async-ar, sync-cut-ar, "
+    "partial-ar) grow linearly in the team"
+)
+
+
 def centralized_policy(
     spec: EnvSpec, *, hidden: int, layers: int, config: PPOConfig
 ) -> CentralizedPolicy:
-    """The paper's conditional centralized policy (the method registry's policy builder)."""
+    """The paper's conditional centralized policy (the method registry's policy builder); a
+    team whose joint option set cannot fit is refused before anything is allocated
+    (:mod:`maopg.policy.joint_size`)."""
+    require_joint_head_fits(
+        spec.option_counts,
+        hidden=hidden,
+        copies=4,  # weights, gradient, Adam's two moments
+        rows=1,  # at least one decision point's logits (a minibatch holds many)
+        who="the centralized policy",
+        instead=PRODUCT_WAY_OUT,
+    )
     return CentralizedPolicy(
         spec, hidden=hidden, layers=layers, recurrent=recurrent_setting(config)
     )
@@ -408,7 +425,17 @@ def partial_factored_policy(
 def partial_policy(
     spec: EnvSpec, *, hidden: int, layers: int, config: PPOConfig
 ) -> PartiallyCentralizedPolicy:
-    """One policy per agent from its local observation (paper §III-D)."""
+    """One policy per agent from its local observation (paper §III-D), each with joint logits
+    over the whole team's options: refused, as :func:`centralized_policy`, where they cannot
+    fit."""
+    require_joint_head_fits(
+        spec.option_counts,
+        hidden=hidden,
+        copies=4 * len(spec.option_counts),  # each agent's head: weights, gradient, Adam's two
+        rows=len(spec.option_counts),
+        who="the partially centralized policy",
+        instead=PRODUCT_WAY_OUT,
+    )
     return PartiallyCentralizedPolicy(
         spec, hidden=hidden, layers=layers, recurrent=recurrent_setting(config)
     )

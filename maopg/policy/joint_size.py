@@ -9,7 +9,11 @@ with the joint size, what it would need and what to use instead.
 The estimate counts what certainly exists, in float32: the head's weights ``(hidden + 1)·ΠK``
 times the copies the learner keeps of them (weights, gradient, Adam's two moments, a target
 network), plus the rows of ``ΠK`` values one update holds at once. It is a lower bound — the
-real peak is higher — so the limit is half the machine's memory.
+real peak is higher — so the limit is half the memory the networks train in: the machine's,
+or for a run on a GPU the lesser of the machine's (networks are built on the CPU, then moved)
+and the GPU's. The trainer names that device while it builds the method's networks
+(:func:`building_for`), so a plugin's builder that calls :func:`require_joint_head_fits` is held
+to the same limit without an argument of its own.
 """
 
 from __future__ import annotations
@@ -17,9 +21,16 @@ from __future__ import annotations
 import math
 import os
 from collections import Counter
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+from contextvars import ContextVar
+
+import torch
 
 FLOAT_BYTES = 4
+
+_BUDGET: ContextVar[tuple[int, str] | None] = ContextVar("joint_head_budget", default=None)
+"""``(bytes, where)``: the memory of the device the networks being built train on."""
 
 
 def joint_size(option_counts: Sequence[int]) -> int:
@@ -48,6 +59,28 @@ def machine_memory() -> int:
         return 0
 
 
+def training_memory(device: torch.device | str) -> tuple[int, str]:
+    """The memory networks on ``device`` train in, in bytes (0: unknown), and what it is."""
+    host = machine_memory()
+    device = torch.device(device)
+    if device.type != "cuda":
+        return host, "this machine's"
+    gpu = torch.cuda.get_device_properties(device).total_memory
+    if host and host < gpu:
+        return host, "this machine's (the networks are built there before the GPU)"
+    return gpu, f"the GPU's ({torch.cuda.get_device_name(device)})"
+
+
+@contextmanager
+def building_for(device: torch.device | str) -> Iterator[None]:
+    """Within it, :func:`require_joint_head_fits` holds heads to ``device``'s memory."""
+    token = _BUDGET.set(training_memory(device))
+    try:
+        yield
+    finally:
+        _BUDGET.reset(token)
+
+
 def require_joint_head_fits(
     option_counts: Sequence[int],
     *,
@@ -59,14 +92,17 @@ def require_joint_head_fits(
     memory: int | None = None,
 ) -> None:
     """Raise a :class:`ValueError` naming the joint size when the head would not fit in half of
-    ``memory`` (default: this machine's); ``who`` is the network, ``instead`` the way out."""
-    memory = machine_memory() if memory is None else memory
+    ``memory`` (default: the device's of :func:`building_for`, else this machine's); ``who`` is
+    the network, ``instead`` the way out."""
+    where = "this machine's"
+    if memory is None:
+        memory, where = _BUDGET.get() or (machine_memory(), where)
     need = joint_head_bytes(option_counts, hidden=hidden, copies=copies, rows=rows)
     if memory and need > memory // 2:
         gib = 2.0**30
         raise ValueError(
             f"{who} has one output per joint option: this team's {len(option_counts)} agents "
             f"have {describe_joint(option_counts)} joint options, which need at least "
-            f"{need / gib:,.1f} GiB (half of this machine's {memory / gib:.0f} GiB is the "
+            f"{need / gib:,.1f} GiB (half of {where} {memory / gib:.0f} GiB is the "
             f"limit); {instead}"
         )

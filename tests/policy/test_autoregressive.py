@@ -134,26 +134,38 @@ def test_sampling_frequencies_match_and_respect_the_condition(team, kind):
         assert bool(((freq - p).abs() <= tolerance).all()), (freq, p)
 
 
-def test_gradients_reach_only_the_factors_of_choosing_agents():
+@pytest.mark.parametrize("kind", POLICIES)
+def test_gradients_reach_only_the_factors_of_choosing_agents(kind):
+    """Row by row, in rows where some agents choose and others continue: the log-probability
+    and entropy of a sampled joint send no gradient to a continuing agent's factor — its own
+    encoder's features in that row, which feed its factor alone, get none — and some to every
+    choosing agent's that has a choice (more than one option available)."""
     counts = TEAMS["three"]
-    policy = build(counts)
-    obs, choosing, running, available = random_conditions(counts, 16, seed=5)
+    policy = build(counts, kind=kind)
+    obs, choosing, running, available = random_conditions(counts, 32, seed=5)
+    assert int((~choosing.all(1)).sum()) >= 8, "too few rows with a continuing agent"
+    outputs: dict[int, list[torch.Tensor]] = {i: [] for i in range(len(counts))}
+
+    def keep(agent: int):
+        def hook(_module, _inputs, output: torch.Tensor) -> None:
+            output.retain_grad()
+            outputs[agent].append(output)
+
+        return hook
+
+    handles = [e.register_forward_hook(keep(i)) for i, e in enumerate(policy.encoders)]
     dist = policy.distribution(obs, choosing, running, available)
     joint = dist.sample(torch.Generator().manual_seed(6))
-    agents = torch.arange(len(counts))
-    logits = policy.factor_logits(dist.features, dist.choosing, dist._known(joint, agents), agents)
-    logits.retain_grad()
-    log_softmax = dist._log_softmax(logits, agents)
-    picked = log_softmax.gather(-1, joint.unsqueeze(-1)).squeeze(-1)
-    picked.masked_fill(~dist.choosing, 0.0).sum().backward()
-    grad = logits.grad.abs().sum(-1)
-    assert bool((grad[~choosing] == 0).all()), "a continuing agent's factor got a gradient"
-    assert bool((grad[choosing] > 0).any())
-    # and the distribution's own log_prob builds exactly that graph
-    policy.zero_grad()
-    dist = policy.distribution(obs, choosing, running, available)
-    dist.log_prob(joint).sum().backward()
-    assert all(torch.isfinite(p.grad).all() for p in policy.parameters() if p.grad is not None)
+    (dist.log_prob(joint).sum() + dist.entropy().sum()).backward()
+    for handle in handles:
+        handle.remove()
+    options = available.split(list(counts), dim=1)
+    for agent, kept in outputs.items():
+        assert kept, f"agent {agent}'s encoder never ran"
+        per_row = sum(out.grad.abs().sum(-1) for out in kept)
+        assert bool((per_row[~choosing[:, agent]] == 0).all()), f"agent {agent} continued"
+        chose = choosing[:, agent] & (options[agent].sum(1) > 1)
+        assert int(chose.sum()) >= 8 and bool((per_row[chose] > 0).all()), f"agent {agent} chose"
 
 
 @pytest.mark.parametrize("kind", POLICIES)

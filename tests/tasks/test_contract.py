@@ -24,10 +24,17 @@ TASKS = task_names()
 MAX_TICKS = 60
 """Short episodes: the contract is about shapes and invariants, not about solving the task."""
 SETTINGS: dict[str, list[dict]] = {
-    "tool_delivery": [{"turtlebots": 6, "fetches": 2, "humans": 3}],
-    "water_filling": [{"vehicles": 2, "drones": 1, "jars": 4}],
+    "tool_delivery": [
+        {"turtlebots": 6, "fetches": 2, "humans": 3},
+        {"turtlebots": 6, "fetches": 2, "humans": 3, "mask_options": True},
+    ],
+    "water_filling": [
+        {"vehicles": 2, "drones": 1, "jars": 4},
+        {"vehicles": 4, "drones": 4, "jars": 8},
+    ],
 }
-"""Task settings the contract runs at besides each task's defaults."""
+"""Task settings the contract runs at besides each task's defaults: scaled teams, among them
+the teams of eight of the ``teams`` study at its settings."""
 CASES = [pytest.param(task, {}, id=task) for task in TASKS] + [
     pytest.param(task, s, id=f"{task}[{','.join(f'{k}={v}' for k, v in s.items())}]")
     for task, settings in SETTINGS.items()
