@@ -82,9 +82,9 @@ class PPOConfig(Settings):
     ent_decay: int = setting(0, ge=0)
     """Ticks over which the entropy bonus's weight falls linearly from ``ent_coef`` to
     ``ent_coef_end`` (as Mac-DQN's ε falls over ``dqn.eps_decay``); 0 keeps ``ent_coef``
-    throughout. The bonus keeps a policy soft; annealed, it lets the policy end sure of its
-    choices, so that its mode plays as well as its samples (results/memory/README.md, finding
-    4: a soft policy's mode can loop where its samples move on)."""
+    throughout. Annealing is a common way to let a policy end sure of its choices; on Water
+    Filling it left recurrent ``async`` as soft as before (results/memory/README.md, finding
+    5)."""
     value_coef: float = setting(1.0, ge=0.0)
     lr: float = setting(5e-4, gt=0.0)
     critic_lr: float = setting(5e-4, gt=0.0)
