@@ -345,15 +345,20 @@ def write_results(
         ("Table I analog: async vs Mac-DQN", TABLE1_METHODS),
         ("Table II analog: partially centralized vs centralized (async)", TABLE2_METHODS),
     )
-    held = {r.method for r in runs}
-    for title, methods in analogs:  # a paper table's analog where its methods were run
-        if held.issuperset(methods):
+    for title, methods in analogs:  # a paper table's analog, on the tasks where both ran
+        tasks = {
+            t
+            for t in {r.task for r in runs}
+            if {r.method for r in runs if r.task == t}.issuperset(methods)
+        }
+        paired = [r for r in runs if r.task in tasks]
+        if paired:
             sections.append(
                 (
                     title,
-                    peak_table(runs, window=window, methods=methods)
+                    peak_table(paired, window=window, methods=methods)
                     + "\n"
-                    + threshold_table(runs, thresholds, window=window, methods=methods),
+                    + threshold_table(paired, thresholds, window=window, methods=methods),
                 )
             )
     if normalised and references:

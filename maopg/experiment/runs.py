@@ -21,6 +21,7 @@ method's curves short and lower its peak.
 from __future__ import annotations
 
 import csv
+import dataclasses
 import json
 import math
 from collections import defaultdict
@@ -31,7 +32,9 @@ from typing import Any
 
 import numpy as np
 
+from maopg.experiment.config import TrainConfig
 from maopg.experiment.config_file import read_config_file
+from maopg.experiment.methods import get_method
 from maopg.experiment.run_dir import CONFIG, DONE, METRICS
 
 RETURN = "episode_return"
@@ -100,8 +103,26 @@ def load_run(run_dir: str | Path) -> RunData:
         samples=samples,
         metrics=metrics,
         finished=(run_dir / DONE).exists(),
-        config=flatten_config(config),
+        config=flatten_config(with_defaults(config)),
     )
+
+
+def with_defaults(config: dict[str, Any]) -> dict[str, Any]:
+    """``config`` with the settings it lacks filled in at today's defaults: the top-level ones
+    and its method's section. A ``config.json`` written before a setting existed lacks it, and
+    its run trained as the setting's default does (a new setting defaults to the old
+    behaviour); unfilled, a run that sets it would be pooled, unlabelled, with runs that predate
+    it. A method this process does not know (a plugin not imported) keeps its section as is."""
+    defaults = {k: v for k, v in TrainConfig().to_dict().items() if not isinstance(v, dict)}
+    filled = {**defaults, **config}
+    try:
+        method = get_method(str(config["method"]))
+    except ValueError:
+        return filled
+    section = filled.get(method.section)
+    if isinstance(section, dict):
+        filled[method.section] = {**dataclasses.asdict(method.default_config()), **section}
+    return filled
 
 
 def flatten_config(config: dict[str, Any]) -> dict[str, Any]:

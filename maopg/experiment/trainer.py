@@ -110,7 +110,7 @@ def build_learner(
     environments of ``spec``: what :func:`train` learns with, and what a benchmark times."""
     method = get_method(config.method)
     size = {"hidden": config.hidden, "layers": config.layers}
-    with building_for(config.device):
+    with building_for(config.device, batch_ticks=config.batch_ticks):  # type: ignore[arg-type]
         policy = method.build_policy(spec, **size, config=config.learner)
     setup = LearnerSetup(
         spec=spec,

@@ -57,7 +57,7 @@ from maopg.policy import (
     set_precision,
     stack_conditions,
 )
-from maopg.policy.joint_size import require_joint_head_fits
+from maopg.policy.joint_size import build_target, require_joint_head_fits
 from maopg.settings import Settings, setting
 
 
@@ -81,10 +81,10 @@ class PPOConfig(Settings):
     """With ``ent_decay``: the weight the bonus falls to, and keeps after ``ent_decay`` ticks."""
     ent_decay: int = setting(0, ge=0)
     """Ticks over which the entropy bonus's weight falls linearly from ``ent_coef`` to
-    ``ent_coef_end`` (as Mac-DQN's ε falls over ``dqn.eps_decay``); 0 keeps ``ent_coef``
-    throughout. Annealing is a common way to let a policy end sure of its choices; on Water
-    Filling it left recurrent ``async`` as soft as before (results/memory/README.md, finding
-    5)."""
+    ``ent_coef_end`` (as Mac-DQN's ε falls over ``dqn.eps_decay``, except at 0, which here
+    means no decay: ``ent_coef`` throughout). Annealing is a common way to let a policy end
+    sure of its choices; on Water Filling it left recurrent ``async`` as soft as before
+    (results/memory/README.md, finding 5)."""
     value_coef: float = setting(1.0, ge=0.0)
     lr: float = setting(5e-4, gt=0.0)
     critic_lr: float = setting(5e-4, gt=0.0)
@@ -111,8 +111,9 @@ class PPOConfig(Settings):
         """The entropy bonus's weight in the update after ``samples`` ticks (``ent_decay``)."""
         if self.ent_decay == 0:
             return self.ent_coef
-        frac = min(1.0, samples / self.ent_decay)
-        return self.ent_coef + frac * (self.ent_coef_end - self.ent_coef)
+        if samples >= self.ent_decay:
+            return self.ent_coef_end
+        return self.ent_coef + samples / self.ent_decay * (self.ent_coef_end - self.ent_coef)
 
 
 @dataclass
@@ -383,6 +384,14 @@ PRODUCT_WAY_OUT = (
 )
 
 
+def update_rows(config: PPOConfig) -> int:
+    """Rows of joint logits a PPO update over a product categorical holds at once: a
+    minibatch's decision points (at most about one per tick of the run's batch,
+    :func:`~maopg.policy.joint_size.build_target`) times the logits, their log-softmax and
+    its gradient."""
+    return 3 * max(1, build_target().batch_ticks // config.num_minibatches)
+
+
 def centralized_policy(
     spec: EnvSpec, *, hidden: int, layers: int, config: PPOConfig
 ) -> CentralizedPolicy:
@@ -393,7 +402,7 @@ def centralized_policy(
         spec.option_counts,
         hidden=hidden,
         copies=4,  # weights, gradient, Adam's two moments
-        rows=1,  # at least one decision point's logits (a minibatch holds many)
+        rows=update_rows(config),
         who="the centralized policy",
         instead=PRODUCT_WAY_OUT,
     )
@@ -432,7 +441,7 @@ def partial_policy(
         spec.option_counts,
         hidden=hidden,
         copies=4 * len(spec.option_counts),  # each agent's head: weights, gradient, Adam's two
-        rows=len(spec.option_counts),
+        rows=len(spec.option_counts) * update_rows(config),
         who="the partially centralized policy",
         instead=PRODUCT_WAY_OUT,
     )

@@ -8,12 +8,12 @@ with the joint size, what it would need and what to use instead.
 
 The estimate counts what certainly exists, in float32: the head's weights ``(hidden + 1)·ΠK``
 times the copies the learner keeps of them (weights, gradient, Adam's two moments, a target
-network), plus the rows of ``ΠK`` values one update holds at once. It is a lower bound — the
-real peak is higher — so the limit is half the memory the networks train in: the machine's,
-or for a run on a GPU the lesser of the machine's (networks are built on the CPU, then moved)
-and the GPU's. The trainer names that device while it builds the method's networks
-(:func:`building_for`), so a plugin's builder that calls :func:`require_joint_head_fits` is held
-to the same limit without an argument of its own.
+network), plus the rows of ``ΠK`` values one update holds at once. The limit is half the memory
+the networks train in: the machine's, or for a run on a GPU the lesser of the machine's
+(networks are built on the CPU, then moved) and the GPU's. The trainer says what it builds for
+— that device, and the run's batch, which bounds how many decision points an update holds —
+while it builds the method's networks (:func:`building_for`), so a plugin's builder that calls
+:func:`require_joint_head_fits` is held to the same limit without arguments of its own.
 """
 
 from __future__ import annotations
@@ -24,13 +24,27 @@ from collections import Counter
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from contextvars import ContextVar
+from dataclasses import dataclass
 
 import torch
 
 FLOAT_BYTES = 4
 
-_BUDGET: ContextVar[tuple[int, str] | None] = ContextVar("joint_head_budget", default=None)
-"""``(bytes, where)``: the memory of the device the networks being built train on."""
+
+@dataclass(frozen=True)
+class BuildTarget:
+    """What the networks being built will train in and on (:func:`building_for`)."""
+
+    memory: int
+    """Bytes (0: unknown, then nothing is refused)."""
+    where: str
+    """Whose memory it is, as the refusal says it: ``this machine's``, ``the GPU's (...)``."""
+    batch_ticks: int = 1
+    """The run's ticks per update: an update holds at most about this many decision points (one
+    per tick of each environment), so a joint head's rows are bounded by it."""
+
+
+_TARGET: ContextVar[BuildTarget | None] = ContextVar("joint_head_target", default=None)
 
 
 def joint_size(option_counts: Sequence[int]) -> int:
@@ -46,7 +60,7 @@ def describe_joint(option_counts: Sequence[int]) -> str:
 
 
 def joint_head_bytes(option_counts: Sequence[int], *, hidden: int, copies: int, rows: int) -> int:
-    """Lower bound on the memory of a joint head and one update over it (module docstring)."""
+    """The memory of a joint head and one update over it (module docstring)."""
     size = joint_size(option_counts)
     return FLOAT_BYTES * size * (copies * (hidden + 1) + rows)
 
@@ -60,25 +74,31 @@ def machine_memory() -> int:
 
 
 def training_memory(device: torch.device | str) -> tuple[int, str]:
-    """The memory networks on ``device`` train in, in bytes (0: unknown), and what it is."""
+    """The memory networks on ``device`` train in, in bytes (0: unknown), and whose it is."""
     host = machine_memory()
     device = torch.device(device)
     if device.type != "cuda":
         return host, "this machine's"
     gpu = torch.cuda.get_device_properties(device).total_memory
     if host and host < gpu:
-        return host, "this machine's (the networks are built there before the GPU)"
+        return host, "this machine's"
     return gpu, f"the GPU's ({torch.cuda.get_device_name(device)})"
 
 
 @contextmanager
-def building_for(device: torch.device | str) -> Iterator[None]:
-    """Within it, :func:`require_joint_head_fits` holds heads to ``device``'s memory."""
-    token = _BUDGET.set(training_memory(device))
+def building_for(device: torch.device | str, *, batch_ticks: int = 1) -> Iterator[None]:
+    """Within it, joint heads are held to ``device``'s memory (:func:`build_target`)."""
+    memory, where = training_memory(device)
+    token = _TARGET.set(BuildTarget(memory, where, batch_ticks))
     try:
         yield
     finally:
-        _BUDGET.reset(token)
+        _TARGET.reset(token)
+
+
+def build_target() -> BuildTarget:
+    """What :func:`building_for` set, else this machine's memory and a batch of one row."""
+    return _TARGET.get() or BuildTarget(machine_memory(), "this machine's")
 
 
 def require_joint_head_fits(
@@ -92,11 +112,12 @@ def require_joint_head_fits(
     memory: int | None = None,
 ) -> None:
     """Raise a :class:`ValueError` naming the joint size when the head would not fit in half of
-    ``memory`` (default: the device's of :func:`building_for`, else this machine's); ``who`` is
-    the network, ``instead`` the way out."""
+    ``memory`` (default: :func:`build_target`'s); ``who`` is the network, ``instead`` the way
+    out."""
     where = "this machine's"
     if memory is None:
-        memory, where = _BUDGET.get() or (machine_memory(), where)
+        target = build_target()
+        memory, where = target.memory, target.where
     need = joint_head_bytes(option_counts, hidden=hidden, copies=copies, rows=rows)
     if memory and need > memory // 2:
         gib = 2.0**30

@@ -157,18 +157,36 @@ def test_runs_that_learnt_from_different_settings_are_not_pooled(tmp_path):
     assert "scripted (2)" in svg  # the reference level, as a dashed line
 
 
+def test_a_setting_newer_than_a_runs_config_reads_as_its_default(tmp_path):
+    """A config.json written before ``ppo.ent_decay`` existed trained with its default (0): a
+    run that sets it is a row of its own, not pooled with the older runs; one that sets the
+    default is pooled with them."""
+    root = tmp_path / "runs"
+    old = {"ppo": {"lr": 0.0005}}  # no ent_decay: the config of an older version
+    _fake_run(root, "tool_delivery", "async", 0, [100], [1.0], config=old)
+    _fake_run(root, "tool_delivery", "async", 1, [100], [1.0], config={"ppo": {"ent_decay": 0}})
+    _fake_run(root, "tool_delivery", "async", 2, [100], [1.0], config={"ppo": {"ent_decay": 9}})
+    groups = group_runs(discover_runs([root]))
+    assert {label: [r.seed for r in runs] for (_, label), runs in groups.items()} == {
+        "async [ppo.ent_decay=0]": [0, 1],
+        "async [ppo.ent_decay=9]": [2],
+    }
+
+
 def test_a_paper_tables_analog_is_written_where_its_methods_were_run(tmp_path):
     """Table I (async vs Mac-DQN) and Table II (async vs partial) analogs appear in tables.md
     only where the runs hold both of their methods, never as empty sections."""
     root = tmp_path / "runs"
     for method in ("async", "mac-dqn"):
         _fake_run(root, "tool_delivery", method, 0, [100, 200], [1.0, 2.0])
+    _fake_run(root, "water_filling", "async", 0, [100, 200], [1.0, 2.0])  # no Mac-DQN there
     write_results(discover_runs([root]), tmp_path / "results")
     tables = (tmp_path / "results" / "tables.md").read_text()
     assert "Table I analog" in tables and "Table II analog" not in tables
     table_one = tables.split("## Table I analog")[1]
     assert "| tool_delivery | async | 1 |" in table_one
     assert "| tool_delivery | mac-dqn | 1 |" in table_one
+    assert "water_filling" not in table_one
 
 
 def test_settings_that_differ_between_methods_are_stated(tmp_path, capsys):
