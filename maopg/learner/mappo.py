@@ -384,12 +384,14 @@ PRODUCT_WAY_OUT = (
 )
 
 
-def update_rows(config: PPOConfig) -> int:
-    """Rows of joint logits a PPO update over a product categorical holds at once: a
+def update_rows(config: Any) -> int:
+    """Rows of joint logits an update over a product categorical holds at once: a
     minibatch's decision points (at most about one per tick of the run's batch,
     :func:`~maopg.policy.joint_size.build_target`) times the logits, their log-softmax and
-    its gradient."""
-    return 3 * max(1, build_target().batch_ticks // config.num_minibatches)
+    its gradient. ``config`` is the learner's section: a user's learner that reuses these
+    builders may have no ``num_minibatches`` (one minibatch, then)."""
+    minibatches = int(getattr(config, "num_minibatches", 1))
+    return 3 * max(1, build_target().batch_ticks // minibatches)
 
 
 def centralized_policy(
