@@ -1,0 +1,105 @@
+"""Figures of logged runs that ``python -m eval table`` does not print: how far each PPO update
+moved the policy, whether two groups' final returns differ beyond their seeds' noise, and how
+often a run sat at one return.
+
+Run: ``.venv/bin/python bench/run_stats.py LABEL=DIR[,DIR...] ... [--last 10] [--at -150]``.
+Each ``LABEL=DIR,...`` is a group: every run directory under those folders (finished or not).
+Prints a Markdown table per group and seed, then each group's mean ± std over seeds:
+
+- final return: the mean over the last 10% of the run's samples (as ``eval table``);
+- ``approx_kl`` and ``clip_fraction``: means over the run's last ``--last`` iterations, the size
+  of its late updates;
+- with ``--at R``: the share of iterations that ended an episode whose mean return is exactly
+  ``R``, and the iterations above it.
+
+Then, for the first group against each other one, the difference of the final returns' means
+and its Welch standard error, ``sqrt(s1²/n1 + s2²/n2)`` with the seeds' sample variances.
+
+``eval table`` groups runs by what they learnt from, so it pools runs of the same settings that
+differ only in where they ran (a benchmark's and the grid's, say): here the groups are named.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import statistics
+
+import numpy as np
+
+from maopg.experiment.runs import RETURN, RunData, discover_runs, final
+
+
+def _group(spec: str) -> tuple[str, list[RunData]]:
+    label, sep, dirs = spec.partition("=")
+    if not sep or not dirs:
+        raise SystemExit(f"error: a group is LABEL=DIR[,DIR...], got {spec!r}")
+    runs = discover_runs(dirs.split(","), unfinished=True)
+    if not runs:
+        raise SystemExit(f"error: no run directory under {dirs!r}")
+    return label, runs
+
+
+def _late(run: RunData, column: str, last: int) -> float:
+    values = run.metrics[column][-last:]
+    return float(np.nanmean(values))
+
+
+def _spread(values: list[float], form: str) -> str:
+    """Mean ± standard deviation over seeds (population, as ``eval table`` writes it)."""
+    return f"{statistics.mean(values):{form}} ± {statistics.pstdev(values):{form}}"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("groups", nargs="+", help="LABEL=DIR[,DIR...]")
+    parser.add_argument("--last", type=int, default=10, help="late iterations (default 10)")
+    parser.add_argument("--at", type=float, help="a return to count iterations at")
+    args = parser.parse_args()
+    groups = [_group(spec) for spec in args.groups]
+
+    header = "| group | seed | final return (last 10%) | approx_kl | clip_fraction |"
+    header += (
+        " iterations at the return | above it (samples: return) |" if args.at is not None else ""
+    )
+    print(header)
+    print("|" + "---|" * (header.count("|") - 1))
+    finals: dict[str, list[float]] = {}
+    for label, runs in groups:
+        for run in runs:
+            row = [label, str(run.seed), f"{final(run):,.0f}"]
+            row += [f"{_late(run, c, args.last):.4f}" for c in ("approx_kl", "clip_fraction")]
+            if args.at is not None:
+                logged = run.metrics[RETURN]  # as logged: a smoothed curve's sums blur it
+                seen = ~np.isnan(logged)
+                samples, returns = run.samples[seen], logged[seen]
+                at = float(np.mean(returns == args.at)) if returns.size else math.nan
+                above = [
+                    f"{int(s):,}: {r:,.1f}"
+                    for s, r in zip(samples, returns, strict=True)
+                    if r > args.at
+                ]
+                row += [f"{at:.1%} of {returns.size}", ", ".join(above) or "none"]
+            print("| " + " | ".join(row) + " |")
+        finals[label] = [final(run) for run in runs]
+        late = [[_late(run, c, args.last) for run in runs] for c in ("approx_kl", "clip_fraction")]
+        row = [f"**{label}**", f"{len(runs)} seeds", _spread(finals[label], ",.0f")]
+        row += [_spread(values, ".4f") for values in late]
+        print("| " + " | ".join(row + [""] * (2 if args.at is not None else 0)) + " |")
+
+    first, base = next(iter(finals.items()))
+    for label, values in list(finals.items())[1:]:
+        if min(len(base), len(values)) < 2:
+            continue
+        diff = statistics.mean(base) - statistics.mean(values)
+        error = math.sqrt(
+            statistics.variance(base) / len(base) + statistics.variance(values) / len(values)
+        )
+        print(
+            f"\n{first} − {label}: final returns' means differ by {diff:,.0f}, "
+            f"Welch standard error {error:,.0f}"
+        )
+
+
+if __name__ == "__main__":
+    main()
