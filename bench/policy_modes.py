@@ -2,7 +2,8 @@
 one does not.
 
 Run: ``.venv/bin/python bench/policy_modes.py [CHECKPOINT ...] [--episodes 2] [--sample]``
-(default: seed 0 of each Water Filling method of the grid and of the ``memory`` study).
+(default: seed 0 of each Water Filling method of the grid, of the ``memory`` study and of its
+unnormalised runs).
 
 Greedy evaluation takes the mode of every choosing agent's option distribution. That is a
 faithful summary of a policy only where the policy is sure; where it spreads its probability,
@@ -39,6 +40,7 @@ DEFAULT = [
     Path(f"results/{root}/water_filling/{method}/seed0/final.pt")
     for root, methods in (
         ("runs", ("async", "sync-wait", "partial")),
+        ("memory/unnormalised", ("async-rnn", "sync-wait-rnn", "partial-rnn")),
         ("memory/runs", ("async-rnn", "sync-wait-rnn", "partial-rnn")),
     )
     for method in methods
@@ -117,7 +119,7 @@ def main() -> None:
             sure, mode_repeats, sample_repeats = (np.array(c) for c in zip(*rows, strict=True))
             repeat_sure = f"{sure[mode_repeats].mean():.2f}" if mode_repeats.any() else "—"
             print(
-                f"| `{checkpoint.parent.parent.name}/{checkpoint.parent.name}` | {agent} "
+                f"| `{checkpoint.parent}` | {agent} "
                 f"| {len(rows)} | {sure.mean():.2f} | {(sure < 0.6).mean():.0%} "
                 f"| {mode_repeats.mean():.0%} | {repeat_sure} | {sample_repeats.mean():.0%} |"
             )

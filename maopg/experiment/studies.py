@@ -191,12 +191,17 @@ def _teams_canonical() -> Study:
 
 def _memory() -> Study:
     """Recurrent policies and critics on Water Filling from RGB (its defaults: 200K samples),
-    beside the committed feed-forward runs of the same methods."""
+    beside the committed feed-forward runs of the same methods. Their GRUs read the option
+    history and are layer-normalised (``ppo.option_history``, ``ppo.memory_norm``): without
+    the norm the encoders' large features saturate the gates and the greedy policies loop
+    (results/memory/README.md; the runs without both are kept in
+    ``results/memory/unnormalised/``)."""
     return Study(
         "memory",
         "recurrent async, sync-wait and partial on Water Filling from RGB, beside the grid's",
         (StudyTask("water_filling", (0, 1, 2)),),
         ("async-rnn", "sync-wait-rnn", "partial-rnn"),
+        overrides=("ppo.option_history=true", "ppo.memory_norm=true"),
         normalised=True,
         baselines=("async", "sync-wait", "partial"),
     )

@@ -102,10 +102,27 @@ class PPOConfig(Settings):
     centralized policy's per-agent state only at that agent's own), the critic's at every one,
     and both restart with each episode. Off by default: feed-forward is cheaper, and the
     committed grid is feed-forward."""
+    option_history: bool = False
+    """Recurrent only: the GRUs also read each agent's option and who chooses at every point
+    (:mod:`maopg.policy.memory`, "Option history"), the macro-action-observation histories of
+    the literature; off, they read the encoders' features alone (the committed ``memory``
+    study's runs)."""
+    memory_norm: bool = False
+    """Recurrent only: layer-normalise each GRU's input features and its output, as rMAPPO
+    does (:mod:`maopg.policy.memory`, "Normalisation"); off, the GRUs read the encoders'
+    unnormalised features (the committed ``memory`` study's runs)."""
     chunk_length: int = setting(10, ge=1)
     """Recurrent only: consecutive decision points per training chunk, the horizon of truncated
     backpropagation through time (rMAPPO's ``data_chunk_length``); minibatches are sets of
     chunks, each re-run from the state it was collected with."""
+
+    def validate(self) -> None:
+        super().validate()
+        for name in ("option_history", "memory_norm"):
+            if getattr(self, name) and not self.recurrent:
+                raise ValueError(
+                    f"ppo.{name}=true is a part of the GRUs: it needs ppo.recurrent=true"
+                )
 
     def entropy_coef(self, samples: int) -> float:
         """The entropy bonus's weight in the update after ``samples`` ticks (``ent_decay``)."""
@@ -267,7 +284,9 @@ class MAPPO:
                 starts,
                 valid,
             ),
-            lambda: critic.sequence(rows.obs, critic_state, starts, valid),
+            lambda: critic.sequence(
+                rows.obs, critic_state, starts, valid, rows.choosing, rows.running
+            ),
             batch.joint[kept],
             batch.old_log_prob[kept],
             batch.old_value[kept],
@@ -372,10 +391,15 @@ class MAPPO:
         self.critic_opt.load_state_dict(state["critic_opt"])
 
 
-def recurrent_setting(config: Any) -> bool:
-    """A config section's ``recurrent``: the policy builders below serve any learner, and a
-    user's learner whose section has no such field (it is feed-forward) may reuse them."""
-    return bool(getattr(config, "recurrent", False))
+def memory_settings(config: Any) -> dict[str, bool]:
+    """A config section's ``recurrent``, ``option_history`` and ``memory_norm`` as network
+    keywords: the policy builders below serve any learner, and a user's learner whose section
+    has no such fields (it is feed-forward) may reuse them."""
+    return {
+        "recurrent": bool(getattr(config, "recurrent", False)),
+        "option_history": bool(getattr(config, "option_history", False)),
+        "memory_norm": bool(getattr(config, "memory_norm", False)),
+    }
 
 
 PRODUCT_WAY_OUT = (
@@ -408,9 +432,7 @@ def centralized_policy(
         who="the centralized policy",
         instead=PRODUCT_WAY_OUT,
     )
-    return CentralizedPolicy(
-        spec, hidden=hidden, layers=layers, recurrent=recurrent_setting(config)
-    )
+    return CentralizedPolicy(spec, hidden=hidden, layers=layers, **memory_settings(config))
 
 
 def autoregressive_policy(
@@ -418,9 +440,7 @@ def autoregressive_policy(
 ) -> AutoregressivePolicy:
     """The same conditional, factored by the chain rule: one small factor per choosing agent
     (linear in the team size, where the product categorical grows as ``ΠK_i``)."""
-    return AutoregressivePolicy(
-        spec, hidden=hidden, layers=layers, recurrent=recurrent_setting(config)
-    )
+    return AutoregressivePolicy(spec, hidden=hidden, layers=layers, **memory_settings(config))
 
 
 def partial_factored_policy(
@@ -428,9 +448,7 @@ def partial_factored_policy(
 ) -> PartialFactoredPolicy:
     """The partially centralized policy with one factor per agent instead of joint logits
     (linear in the team size, where ``partial``'s heads grow as ``ΠK_i``)."""
-    return PartialFactoredPolicy(
-        spec, hidden=hidden, layers=layers, recurrent=recurrent_setting(config)
-    )
+    return PartialFactoredPolicy(spec, hidden=hidden, layers=layers, **memory_settings(config))
 
 
 def partial_policy(
@@ -447,9 +465,14 @@ def partial_policy(
         who="the partially centralized policy",
         instead=PRODUCT_WAY_OUT,
     )
-    return PartiallyCentralizedPolicy(
-        spec, hidden=hidden, layers=layers, recurrent=recurrent_setting(config)
-    )
+    return PartiallyCentralizedPolicy(spec, hidden=hidden, layers=layers, **memory_settings(config))
+
+
+def _history_inputs(
+    conditions: tuple[Tensor, Tensor, Tensor], device: torch.device
+) -> tuple[Tensor, Tensor]:
+    """``(choosing, running)`` of points on ``device``: what a critic's option history reads."""
+    return conditions[0].to(device), conditions[1].to(device)
 
 
 class MAPPOLearner(Learner):
@@ -472,7 +495,8 @@ class MAPPOLearner(Learner):
     policy_key = "policy"
 
     def __init__(self, policy: OptionPolicy, setup: LearnerSetup) -> None:
-        recurrent = recurrent_setting(setup.config)
+        memory = memory_settings(setup.config)
+        recurrent = memory["recurrent"]
         if policy.recurrent != recurrent:
             built = "a recurrent" if policy.recurrent else "a feed-forward"
             raise ValueError(
@@ -480,9 +504,7 @@ class MAPPOLearner(Learner):
                 f"{built} {type(policy).__name__}"
             )
         super().__init__(policy, setup)
-        critic = CentralCritic(
-            setup.spec, hidden=setup.hidden, layers=setup.layers, recurrent=recurrent
-        )
+        critic = CentralCritic(setup.spec, hidden=setup.hidden, layers=setup.layers, **memory)
         self.critic = critic.to(self.device)
         set_precision(self.critic, setup.precision)
         self.value_norm = ValueNorm().to(self.device) if self.config.value_norm else None
@@ -538,9 +560,12 @@ class MAPPOLearner(Learner):
         on_device = obs.to(device)
         starts = episode_starts(envs.points)
         policy_in, critic_in = self.memory["policy"], self.memory["critic"]
-        values, critic_out = critic.step(on_device, critic_in, starts.to(device))
+        conditions = stack_conditions(envs.points)
+        values, critic_out = critic.step(
+            on_device, critic_in, starts.to(device), *_history_inputs(conditions, device)
+        )
         values = values.cpu()
-        acting = self._act(envs, on_device, policy_in, starts)
+        acting = self._act(on_device, conditions, policy_in, starts)
         ticks = 0
         with _critic_thread() as thread:
             while ticks < self.setup.batch_ticks:
@@ -554,14 +579,19 @@ class MAPPOLearner(Learner):
                 next_obs = ObsBatch.from_decision_points(envs.points)
                 next_on_device = next_obs.to(device)
                 next_starts = episode_starts(envs.points)
+                next_conditions = stack_conditions(envs.points)
                 # The critic values the new points on its own thread while the policy decides
                 # there (as in the update: each computes what it would alone, the same bits).
                 valuing = thread.submit(
-                    value_on_thread, next_on_device, critic_out, next_starts.to(device)
+                    value_on_thread,
+                    next_on_device,
+                    critic_out,
+                    next_starts.to(device),
+                    *_history_inputs(next_conditions, device),
                 )
                 try:
                     if ticks < self.setup.batch_ticks:
-                        acting = self._act(envs, next_on_device, policy_out, next_starts)
+                        acting = self._act(next_on_device, next_conditions, policy_out, next_starts)
                 except BaseException:
                     valuing.exception()  # let the critic's forward end; the policy's error wins
                     raise
@@ -574,7 +604,10 @@ class MAPPOLearner(Learner):
                     finals = ObsBatch.from_decision_points(final_points)
                     carried = None if critic_out is None else critic_out[truncated]
                     final_values, _ = critic.step(
-                        finals.to(device), carried, episode_starts(final_points).to(device)
+                        finals.to(device),
+                        carried,
+                        episode_starts(final_points).to(device),
+                        *_history_inputs(stack_conditions(final_points), device),
                     )
                     bootstrap[truncated] = final_values.cpu()
                 rollout.add(
@@ -604,11 +637,14 @@ class MAPPOLearner(Learner):
         return rollout
 
     def _act(
-        self, envs: SeededVectorEnv, obs: ObsBatch, state: Tensor | None, starts: Tensor
+        self,
+        obs: ObsBatch,
+        conditions: tuple[Tensor, Tensor, Tensor],
+        state: Tensor | None,
+        starts: Tensor,
     ) -> tuple[tuple[Tensor, Tensor, Tensor], JointOptionDistribution, Tensor | None]:
         """The conditions at the environments' current points (``choosing``, ``running``,
         ``available``), the policy's conditional there and its state after them."""
-        conditions = stack_conditions(envs.points)
         device = self.device
         dist, state = self.policy.step(
             obs, *(c.to(device) for c in conditions), state, starts.to(device)

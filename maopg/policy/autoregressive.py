@@ -42,8 +42,7 @@ from maopg.env.contract import EnvSpec
 from maopg.policy.batch import ObsBatch
 from maopg.policy.conditional import agent_masks, draw_multinomial
 from maopg.policy.encoders import JointEncoder, LocalEncoder, init_orthogonal
-from maopg.policy.memory import OptionMemory
-from maopg.policy.networks import POLICY_HEAD_GAIN, EncodedPolicy
+from maopg.policy.networks import POLICY_HEAD_GAIN, EncodedPolicy, build_memory
 
 
 class AutoregressivePolicy(EncodedPolicy):
@@ -75,6 +74,8 @@ class AutoregressivePolicy(EncodedPolicy):
         hidden: int = 128,
         layers: int = 2,
         recurrent: bool = False,
+        option_history: bool = False,
+        memory_norm: bool = False,
         **encoder_kw,
     ) -> None:
         super().__init__()
@@ -98,7 +99,7 @@ class AutoregressivePolicy(EncodedPolicy):
         self.head = nn.Linear(hidden, max(self.option_counts))
         init_orthogonal(self.head, POLICY_HEAD_GAIN)
         memory_slots = n + (self.encoder is not None)
-        self.memory = OptionMemory(size, slots=memory_slots) if recurrent else None
+        self.memory = build_memory(spec, size, memory_slots, recurrent, option_history, memory_norm)
 
     def factor_logits(
         self, features: Tensor, choosing: Tensor, known: Tensor, agents: Tensor

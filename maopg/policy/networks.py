@@ -41,6 +41,25 @@ def _head(in_dim: int, out_dim: int, gain: float) -> nn.Linear:
     return head
 
 
+def build_memory(
+    spec: EnvSpec,
+    size: int,
+    slots: int,
+    recurrent: bool,
+    option_history: bool = False,
+    memory_norm: bool = False,
+) -> OptionMemory | None:
+    """The memory of a network with ``recurrent`` (``None``: feed-forward), reading the option
+    history beside the features with ``option_history``, normalised with ``memory_norm``
+    (:mod:`maopg.policy.memory`)."""
+    if not recurrent:
+        if option_history or memory_norm:
+            raise ValueError("option_history and memory_norm are parts of the memory: recurrent")
+        return None
+    counts = spec.option_counts if option_history else None
+    return OptionMemory(size, slots, counts, norm=memory_norm)
+
+
 class OptionPolicy(nn.Module, ABC):
     """A policy over joint options, conditioned on the continuing agents' running options.
 
@@ -156,7 +175,11 @@ class EncodedPolicy(OptionPolicy):
         if state is None:
             raise ValueError("a recurrent policy needs the state carried into the point")
         features, state = self.memory.step(
-            self.encode(obs), state, starts, self.advancing(choosing)
+            self.encode(obs),
+            state,
+            starts,
+            self.advancing(choosing),
+            self.memory.history(choosing, running),
         )
         return self.conditional(features, choosing, running, available), state
 
@@ -175,7 +198,9 @@ class EncodedPolicy(OptionPolicy):
         advancing = self.advancing(choosing)
         if advancing is not None:
             advancing = advancing.view(*starts.shape, -1)
-        features = self.memory.sequence(self.encode(obs), state, starts, advancing)
+        features = self.memory.sequence(
+            self.encode(obs), state, starts, advancing, self.memory.history(choosing, running)
+        )
         rows = valid.flatten()
         return self.conditional(
             [x[rows] for x in features], choosing[rows], running[rows], available[rows]
@@ -188,12 +213,22 @@ class CentralizedPolicy(EncodedPolicy):
     ``recurrent``: a GRU after the encoder, one joint state advancing at every decision point.
     """
 
-    def __init__(self, spec: EnvSpec, *, recurrent: bool = False, **encoder_kw) -> None:
+    def __init__(
+        self,
+        spec: EnvSpec,
+        *,
+        recurrent: bool = False,
+        option_history: bool = False,
+        memory_norm: bool = False,
+        **encoder_kw,
+    ) -> None:
         super().__init__()
         self.option_counts = spec.option_counts
         self.encoder = JointEncoder(spec, **encoder_kw)
         self.head = _head(self.encoder.out_dim, math.prod(self.option_counts), POLICY_HEAD_GAIN)
-        self.memory = OptionMemory(self.encoder.out_dim) if recurrent else None
+        self.memory = build_memory(
+            spec, self.encoder.out_dim, 1, recurrent, option_history, memory_norm
+        )
 
     def joint_logits(self, obs: ObsBatch) -> Tensor:
         """``[B, K_0, ..., K_{N-1}]`` unconditioned joint logits (feed-forward)."""
@@ -219,7 +254,15 @@ class PartiallyCentralizedPolicy(EncodedPolicy):
     ``recurrent``: one GRU state per agent, advancing only at that agent's own decisions.
     """
 
-    def __init__(self, spec: EnvSpec, *, recurrent: bool = False, **encoder_kw) -> None:
+    def __init__(
+        self,
+        spec: EnvSpec,
+        *,
+        recurrent: bool = False,
+        option_history: bool = False,
+        memory_norm: bool = False,
+        **encoder_kw,
+    ) -> None:
         super().__init__()
         self.option_counts = spec.option_counts
         joint = math.prod(self.option_counts)
@@ -229,8 +272,9 @@ class PartiallyCentralizedPolicy(EncodedPolicy):
         self.heads = nn.ModuleList(
             _head(enc.out_dim, joint, POLICY_HEAD_GAIN) for enc in self.encoders
         )
-        self.memory = (
-            OptionMemory(self.encoders[0].out_dim, slots=spec.num_agents) if recurrent else None
+        size = self.encoders[0].out_dim
+        self.memory = build_memory(
+            spec, size, spec.num_agents, recurrent, option_history, memory_norm
         )
 
     def agent_joint_logits(self, obs: ObsBatch) -> list[Tensor]:
@@ -320,11 +364,21 @@ class CentralCritic(nn.Module):
     used through :meth:`step` and :meth:`sequence` like a recurrent policy's.
     """
 
-    def __init__(self, spec: EnvSpec, *, recurrent: bool = False, **encoder_kw) -> None:
+    def __init__(
+        self,
+        spec: EnvSpec,
+        *,
+        recurrent: bool = False,
+        option_history: bool = False,
+        memory_norm: bool = False,
+        **encoder_kw,
+    ) -> None:
         super().__init__()
         self.encoder = JointEncoder(spec, **encoder_kw)
         self.head = _head(self.encoder.out_dim, 1, 1.0)
-        self.memory = OptionMemory(self.encoder.out_dim) if recurrent else None
+        self.memory = build_memory(
+            spec, self.encoder.out_dim, 1, recurrent, option_history, memory_norm
+        )
 
     @property
     def recurrent(self) -> bool:
@@ -346,21 +400,36 @@ class CentralCritic(nn.Module):
         return self.value(obs)
 
     def step(
-        self, obs: ObsBatch, state: Tensor | None, starts: Tensor
+        self,
+        obs: ObsBatch,
+        state: Tensor | None,
+        starts: Tensor,
+        choosing: Tensor,
+        running: Tensor,
     ) -> tuple[Tensor, Tensor | None]:
         """``[B]`` values of one decision point per row and the state after it (as
-        :meth:`OptionPolicy.step`)."""
+        :meth:`OptionPolicy.step`; the conditions feed a memory of the option history only)."""
         if self.memory is None:
             return self.value(obs), state
         if state is None:
             raise ValueError("a recurrent critic needs the state carried into the point")
-        features, state = self.memory.step([self.encoder(obs)], state, starts)
+        history = self.memory.history(choosing, running)
+        features, state = self.memory.step([self.encoder(obs)], state, starts, None, history)
         return self._value(features[0]), state
 
-    def sequence(self, obs: ObsBatch, state: Tensor, starts: Tensor, valid: Tensor) -> Tensor:
+    def sequence(
+        self,
+        obs: ObsBatch,
+        state: Tensor,
+        starts: Tensor,
+        valid: Tensor,
+        choosing: Tensor,
+        running: Tensor,
+    ) -> Tensor:
         """Values along chunks of consecutive points, the ``valid`` rows (as
         :meth:`OptionPolicy.sequence`)."""
         if self.memory is None:
             raise TypeError("a feed-forward critic has no sequence()")
-        features = self.memory.sequence([self.encoder(obs)], state, starts)
+        history = self.memory.history(choosing, running)
+        features = self.memory.sequence([self.encoder(obs)], state, starts, None, history)
         return self._value(features[0][valid.flatten()])

@@ -180,11 +180,19 @@ def test_every_method_trains_a_tiny_budget(tmp_path, task, method):
         assert json.loads((run_dir / "done.json").read_text())["samples"] >= 180
 
 
-@pytest.mark.parametrize(("method", "samples"), [("async", 1200), ("partial-rnn", 480)])
-def test_kill_and_resume_reproduces_the_uninterrupted_run(tmp_path, method, samples):
-    """Bit for bit, curve and weights; a recurrent run (per-agent GRU states, carried across
-    iterations) included: its states are in the checkpoint."""
-    common = ["--seed", "5", "--total-samples", str(samples), *tiny(method)]
+@pytest.mark.parametrize(
+    ("method", "samples", "extra"),
+    [
+        ("async", 1200, []),
+        ("partial-rnn", 480, []),
+        ("async-rnn", 480, ["ppo.option_history=true", "ppo.memory_norm=true"]),
+    ],
+)
+def test_kill_and_resume_reproduces_the_uninterrupted_run(tmp_path, method, samples, extra):
+    """Bit for bit, curve and weights; recurrent runs (per-agent GRU states, carried across
+    iterations; GRUs that read the option history) included: their states are in the
+    checkpoint."""
+    common = ["--seed", "5", "--total-samples", str(samples), *tiny(method), *extra]
     reference = tmp_path / "reference"
     main([*common, "--run-dir", str(reference)])
 

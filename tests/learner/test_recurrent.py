@@ -22,6 +22,7 @@ from maopg.learner.mappo import (
 from maopg.policy import (
     AutoregressivePolicy,
     DistributionActor,
+    OptionMemory,
     PartialFactoredPolicy,
     PartiallyCentralizedPolicy,
 )
@@ -75,9 +76,9 @@ def test_per_agent_states_freeze_while_an_agent_continues_and_restart_with_an_ep
     assert seen["frozen"] > 0 and seen["advanced"] > 0 and seen["restarts"] >= 1, seen
 
 
-def _learner(envs: SeededVectorEnv, builder) -> MAPPOLearner:
+def _learner(envs: SeededVectorEnv, builder, memory: dict[str, bool]) -> MAPPOLearner:
     torch.manual_seed(0)
-    config = PPOConfig(recurrent=True, chunk_length=5, epochs=2)
+    config = PPOConfig(recurrent=True, chunk_length=5, epochs=2, **memory)
     setup = LearnerSetup(
         spec=envs.spec,
         config=config,
@@ -93,17 +94,27 @@ def _learner(envs: SeededVectorEnv, builder) -> MAPPOLearner:
 
 
 @pytest.mark.parametrize(
-    "builder", [centralized_policy, partial_policy, autoregressive_policy, partial_factored_policy]
+    ("builder", "memory"),
+    [
+        (centralized_policy, {}),
+        (partial_policy, {}),
+        (autoregressive_policy, {}),
+        (partial_factored_policy, {}),
+        # the GRUs read the options too, and are layer-normalised
+        (centralized_policy, {"option_history": True, "memory_norm": True}),
+        (partial_policy, {"option_history": True, "memory_norm": True}),
+        (autoregressive_policy, {"memory_norm": True}),
+    ],
 )
 def test_the_chunked_forward_equals_the_step_by_step_forward_of_collection(
-    builder, update_both_ways
+    builder, memory, update_both_ways
 ):
     envs = SeededVectorEnv(
         EnvConfig(task="tool_delivery", strategy="continue", overrides=SHORT), num_envs=2, seed=7
     )
     try:
         envs.reset()
-        learner = _learner(envs, builder)
+        learner = _learner(envs, builder, memory)
         setup = learner.setup
         learner.setup = dataclasses.replace(setup, batch_ticks=10)
         learner.collect(envs)  # the next rollout starts mid-episode, from carried states
@@ -136,14 +147,16 @@ def test_the_chunked_forward_equals_the_step_by_step_forward_of_collection(
             starts,
             valid,
         )
-        values = learner.critic.sequence(rows.obs, batch.critic_state[chunks[:, 0]], starts, valid)
+        values = learner.critic.sequence(
+            rows.obs, batch.critic_state[chunks[:, 0]], starts, valid, rows.choosing, rows.running
+        )
         log_prob = dist.log_prob(batch.joint[kept])
     torch.testing.assert_close(log_prob, batch.old_log_prob[kept], rtol=1e-5, atol=1e-6)
     torch.testing.assert_close(values, batch.old_value[kept], rtol=1e-5, atol=1e-6)
 
     # The PPO update runs on these chunks, the critic's steps on their own thread (the same bits
     # as on this one), and backpropagation reaches both GRUs.
-    threads, inline = update_both_ways(lambda: _learner(envs, builder).ppo, batch)
+    threads, inline = update_both_ways(lambda: _learner(envs, builder, memory).ppo, batch)
     assert threads["stats"] == inline["stats"]
     for name, value in threads["weights"].items():
         assert torch.equal(value, inline["weights"][name]), name
@@ -187,3 +200,53 @@ def _learner_with(spec, policy) -> MAPPOLearner:
         update_gen=torch.Generator(),
     )
     return MAPPOLearner(policy, setup)
+
+
+def test_the_option_history_tells_apart_points_whose_features_are_the_same():
+    """``ppo.option_history``: at a jar the features hardly change from one ``Fill`` to the
+    next, so a GRU fed only them returns to one state; fed the options too, it does not."""
+    torch.manual_seed(0)
+    counts = (3, 2)
+    memory = OptionMemory(4, slots=1, option_counts=counts)
+    features = [torch.ones(3, 4)]
+    choosing = torch.tensor([[True, False], [True, False], [False, True]])
+    running = torch.tensor([[-1, 1], [0, 1], [0, 1]])
+    history = memory.history(choosing, running)
+    assert history.tolist() == [
+        [0, 0, 0, 0, 1, 1, 0],  # reset: the chooser has no option yet
+        [1, 0, 0, 0, 1, 1, 0],
+        [1, 0, 0, 0, 1, 0, 1],
+    ]
+    no_starts = torch.zeros(3, dtype=torch.bool)
+    outputs, _ = memory.step(features, memory.initial_state(3), no_starts, history=history)
+    assert not torch.equal(outputs[0][0], outputs[0][1])
+    assert not torch.equal(outputs[0][1], outputs[0][2])
+    with pytest.raises(ValueError, match="history="):
+        memory.step(features, memory.initial_state(3), no_starts)
+    with pytest.raises(ValueError, match="history="):
+        OptionMemory(4).step(features, torch.zeros(3, 1, 4), no_starts, history=history)
+    with pytest.raises(ValueError, match=r"ppo\.option_history=true .* ppo\.recurrent=true"):
+        PPOConfig(option_history=True).validate()
+
+
+def test_a_normalised_memory_reads_features_of_any_scale_alike():
+    """``ppo.memory_norm``: the encoders' ReLU features are large (hundreds in norm) and would
+    saturate the GRU's gates; normalised, a cell reads features ×1000 as it reads them ×1, and
+    the head reads a normalised output while the state carried on is the cell's own."""
+    torch.manual_seed(0)
+    memory = OptionMemory(8, slots=2, norm=True)
+    features = [torch.randn(3, 8).relu(), torch.randn(3, 8).relu() + 0.1]
+    no_starts = torch.zeros(3, dtype=torch.bool)
+    state = memory.initial_state(3)
+    outputs, after = memory.step(features, state, no_starts)
+    _, after_scaled = memory.step([1000 * x for x in features], state, no_starts)
+    torch.testing.assert_close(after_scaled, after, rtol=1e-4, atol=1e-5)
+    for slot, out in enumerate(outputs):
+        torch.testing.assert_close(out.mean(-1), torch.zeros(3), rtol=0, atol=1e-5)
+        assert not torch.allclose(out, after[:, slot])  # the state is not the output
+    raw = OptionMemory(8, slots=2)
+    raw.cells.load_state_dict(memory.cells.state_dict())
+    _, saturated = raw.step([1000 * x for x in features], state, no_starts)
+    assert not torch.allclose(saturated, after, atol=1e-2)
+    with pytest.raises(ValueError, match=r"ppo\.memory_norm=true .* ppo\.recurrent=true"):
+        PPOConfig(memory_norm=True).validate()
