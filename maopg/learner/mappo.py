@@ -49,6 +49,7 @@ from maopg.policy import (
     CentralizedPolicy,
     DistributionActor,
     JointOptionDistribution,
+    MemoryDesign,
     ObsBatch,
     OptionPolicy,
     PartialFactoredPolicy,
@@ -391,15 +392,15 @@ class MAPPO:
         self.critic_opt.load_state_dict(state["critic_opt"])
 
 
-def memory_settings(config: Any) -> dict[str, bool]:
-    """A config section's ``recurrent``, ``option_history`` and ``memory_norm`` as network
-    keywords: the policy builders below serve any learner, and a user's learner whose section
-    has no such fields (it is feed-forward) may reuse them."""
-    return {
-        "recurrent": bool(getattr(config, "recurrent", False)),
-        "option_history": bool(getattr(config, "option_history", False)),
-        "memory_norm": bool(getattr(config, "memory_norm", False)),
-    }
+def memory_design(config: Any) -> MemoryDesign:
+    """A config section's ``recurrent``, ``option_history`` and ``memory_norm`` as the networks'
+    :class:`~maopg.policy.memory.MemoryDesign`: the policy builders below serve any learner,
+    and a user's learner whose section has no such fields (it is feed-forward) may reuse them."""
+    return MemoryDesign(
+        recurrent=bool(getattr(config, "recurrent", False)),
+        option_history=bool(getattr(config, "option_history", False)),
+        norm=bool(getattr(config, "memory_norm", False)),
+    )
 
 
 PRODUCT_WAY_OUT = (
@@ -432,7 +433,7 @@ def centralized_policy(
         who="the centralized policy",
         instead=PRODUCT_WAY_OUT,
     )
-    return CentralizedPolicy(spec, hidden=hidden, layers=layers, **memory_settings(config))
+    return CentralizedPolicy(spec, hidden=hidden, layers=layers, memory=memory_design(config))
 
 
 def autoregressive_policy(
@@ -440,7 +441,7 @@ def autoregressive_policy(
 ) -> AutoregressivePolicy:
     """The same conditional, factored by the chain rule: one small factor per choosing agent
     (linear in the team size, where the product categorical grows as ``ΠK_i``)."""
-    return AutoregressivePolicy(spec, hidden=hidden, layers=layers, **memory_settings(config))
+    return AutoregressivePolicy(spec, hidden=hidden, layers=layers, memory=memory_design(config))
 
 
 def partial_factored_policy(
@@ -448,7 +449,7 @@ def partial_factored_policy(
 ) -> PartialFactoredPolicy:
     """The partially centralized policy with one factor per agent instead of joint logits
     (linear in the team size, where ``partial``'s heads grow as ``ΠK_i``)."""
-    return PartialFactoredPolicy(spec, hidden=hidden, layers=layers, **memory_settings(config))
+    return PartialFactoredPolicy(spec, hidden=hidden, layers=layers, memory=memory_design(config))
 
 
 def partial_policy(
@@ -465,7 +466,9 @@ def partial_policy(
         who="the partially centralized policy",
         instead=PRODUCT_WAY_OUT,
     )
-    return PartiallyCentralizedPolicy(spec, hidden=hidden, layers=layers, **memory_settings(config))
+    return PartiallyCentralizedPolicy(
+        spec, hidden=hidden, layers=layers, memory=memory_design(config)
+    )
 
 
 def _history_inputs(
@@ -495,8 +498,8 @@ class MAPPOLearner(Learner):
     policy_key = "policy"
 
     def __init__(self, policy: OptionPolicy, setup: LearnerSetup) -> None:
-        memory = memory_settings(setup.config)
-        recurrent = memory["recurrent"]
+        memory = memory_design(setup.config)
+        recurrent = memory.recurrent
         if policy.recurrent != recurrent:
             built = "a recurrent" if policy.recurrent else "a feed-forward"
             raise ValueError(
@@ -504,7 +507,7 @@ class MAPPOLearner(Learner):
                 f"{built} {type(policy).__name__}"
             )
         super().__init__(policy, setup)
-        critic = CentralCritic(setup.spec, hidden=setup.hidden, layers=setup.layers, **memory)
+        critic = CentralCritic(setup.spec, hidden=setup.hidden, layers=setup.layers, memory=memory)
         self.critic = critic.to(self.device)
         set_precision(self.critic, setup.precision)
         self.value_norm = ValueNorm().to(self.device) if self.config.value_norm else None

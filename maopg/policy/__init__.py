@@ -29,7 +29,7 @@ from maopg.policy.encoders import (
     init_orthogonal,
     set_precision,
 )
-from maopg.policy.memory import OptionMemory
+from maopg.policy.memory import FEED_FORWARD, MemoryDesign, OptionMemory
 from maopg.policy.networks import (
     CentralCritic,
     CentralizedPolicy,
@@ -40,6 +40,7 @@ from maopg.policy.networks import (
 )
 
 __all__ = [
+    "FEED_FORWARD",
     "PRECISIONS",
     "AutoregressiveConditional",
     "AutoregressivePolicy",
@@ -53,6 +54,7 @@ __all__ = [
     "JointOptionDistribution",
     "JointQNetwork",
     "LocalEncoder",
+    "MemoryDesign",
     "NatureCNN",
     "ObsBatch",
     "OptionMemory",

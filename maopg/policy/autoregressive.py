@@ -42,7 +42,8 @@ from maopg.env.contract import EnvSpec
 from maopg.policy.batch import ObsBatch
 from maopg.policy.conditional import agent_masks, draw_multinomial
 from maopg.policy.encoders import JointEncoder, LocalEncoder, init_orthogonal
-from maopg.policy.networks import POLICY_HEAD_GAIN, EncodedPolicy, build_memory
+from maopg.policy.memory import FEED_FORWARD, MemoryDesign
+from maopg.policy.networks import POLICY_HEAD_GAIN, EncodedPolicy
 
 
 class AutoregressivePolicy(EncodedPolicy):
@@ -58,8 +59,9 @@ class AutoregressivePolicy(EncodedPolicy):
     delivered), where ``partial-ar``, reading local features only, never did
     (results/chain-rule/README.md).
 
-    ``recurrent``: a GRU per encoder — the joint state advances at every decision point, agent
-    ``i``'s own state only where agent ``i`` chooses (as in :class:`PartialFactoredPolicy`).
+    A recurrent ``memory``: a GRU per encoder — the joint state advances at every decision
+    point, agent ``i``'s own state only where agent ``i`` chooses (as in
+    :class:`PartialFactoredPolicy`).
     """
 
     sees_joint = True
@@ -73,9 +75,7 @@ class AutoregressivePolicy(EncodedPolicy):
         *,
         hidden: int = 128,
         layers: int = 2,
-        recurrent: bool = False,
-        option_history: bool = False,
-        memory_norm: bool = False,
+        memory: MemoryDesign = FEED_FORWARD,
         **encoder_kw,
     ) -> None:
         super().__init__()
@@ -99,7 +99,7 @@ class AutoregressivePolicy(EncodedPolicy):
         self.head = nn.Linear(hidden, max(self.option_counts))
         init_orthogonal(self.head, POLICY_HEAD_GAIN)
         memory_slots = n + (self.encoder is not None)
-        self.memory = build_memory(spec, size, memory_slots, recurrent, option_history, memory_norm)
+        self.memory = memory.build(spec.option_counts, size, memory_slots)
 
     def factor_logits(
         self, features: Tensor, choosing: Tensor, known: Tensor, agents: Tensor
@@ -162,7 +162,7 @@ class PartialFactoredPolicy(AutoregressivePolicy):
     agent's identity) over per-agent encoders, so its cost is linear in the team size. As in the
     paper the choosing agents draw independently given ``c``: neither the joint features nor
     the earlier draws are read, and the entropy along a joint is the exact joint entropy.
-    ``recurrent``: one state per agent, advancing only at that agent's own decisions.
+    A recurrent ``memory``: one state per agent, advancing only at that agent's own decisions.
     """
 
     sees_joint = False

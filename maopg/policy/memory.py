@@ -44,6 +44,7 @@ different batch size: ~1e-7 on the CPU, ``tests/learner/test_recurrent.py``).
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import torch
 from torch import Tensor, nn
@@ -58,6 +59,35 @@ def option_history(choosing: Tensor, running: Tensor, option_counts: Sequence[in
         for i, k in enumerate(option_counts)
     ]
     return torch.cat([*parts, choosing.float()], dim=-1)
+
+
+@dataclass(frozen=True)
+class MemoryDesign:
+    """Which memory a network carries, as one argument: every policy and the critic of a run
+    take the same three settings (``ppo.recurrent``, ``ppo.option_history``,
+    ``ppo.memory_norm``), and a network never reads them apart."""
+
+    recurrent: bool = False
+    option_history: bool = False
+    """Recurrent only: the cells also read the option history (module docstring)."""
+    norm: bool = False
+    """Recurrent only: the cells' features and outputs are layer-normalised (module docstring)."""
+
+    def __post_init__(self) -> None:
+        if not self.recurrent and (self.option_history or self.norm):
+            raise ValueError("option_history and norm are parts of the memory: recurrent")
+
+    def build(self, option_counts: Sequence[int], size: int, slots: int) -> OptionMemory | None:
+        """The memory of a network with ``slots`` encoders of ``size`` features for a team with
+        these option sets (``None``: feed-forward)."""
+        if not self.recurrent:
+            return None
+        counts = option_counts if self.option_history else None
+        return OptionMemory(size, slots, counts, norm=self.norm)
+
+
+FEED_FORWARD = MemoryDesign()
+"""No memory: a network that reads only the current decision point."""
 
 
 class OptionMemory(nn.Module):

@@ -4,9 +4,10 @@
 the condition of each decision point (who chooses, what the others run, what is available) it
 returns a distribution over joint options. The product categorical behind
 :class:`CentralizedPolicy` is exact but grows as ``ΠK_i``; a factored or autoregressive
-conditional policy for many agents would implement the same interface. With ``recurrent=True``
-the policies and the critic carry a GRU state over the decision points (:class:`EncodedPolicy`,
-:mod:`maopg.policy.memory`), for partially observable tasks.
+conditional policy for many agents would implement the same interface. With a recurrent
+``memory`` (:class:`~maopg.policy.memory.MemoryDesign`) the policies and the critic carry a GRU
+state over the decision points (:class:`EncodedPolicy`, :mod:`maopg.policy.memory`), for
+partially observable tasks.
 
 :class:`JointQNetwork` is Mac-DQN's acting network: a value for every joint option, acted on by
 the conditional argmax of :mod:`maopg.policy.conditional`.
@@ -29,7 +30,7 @@ from maopg.policy.conditional import (
     partial_conditional_log_probs,
 )
 from maopg.policy.encoders import JointEncoder, LocalEncoder, init_orthogonal
-from maopg.policy.memory import OptionMemory
+from maopg.policy.memory import FEED_FORWARD, MemoryDesign, OptionMemory
 
 POLICY_HEAD_GAIN = 0.01
 """MAPPO's policy-head gain: near-uniform initial policy, so early exploration is broad."""
@@ -39,25 +40,6 @@ def _head(in_dim: int, out_dim: int, gain: float) -> nn.Linear:
     head = nn.Linear(in_dim, out_dim)
     init_orthogonal(head, gain)
     return head
-
-
-def build_memory(
-    spec: EnvSpec,
-    size: int,
-    slots: int,
-    recurrent: bool,
-    option_history: bool = False,
-    memory_norm: bool = False,
-) -> OptionMemory | None:
-    """The memory of a network with ``recurrent`` (``None``: feed-forward), reading the option
-    history beside the features with ``option_history``, normalised with ``memory_norm``
-    (:mod:`maopg.policy.memory`)."""
-    if not recurrent:
-        if option_history or memory_norm:
-            raise ValueError("option_history and memory_norm are parts of the memory: recurrent")
-        return None
-    counts = spec.option_counts if option_history else None
-    return OptionMemory(size, slots, counts, norm=memory_norm)
 
 
 class OptionPolicy(nn.Module, ABC):
@@ -210,25 +192,22 @@ class EncodedPolicy(OptionPolicy):
 class CentralizedPolicy(EncodedPolicy):
     """Joint observation → logits over the product of all agents' option sets.
 
-    ``recurrent``: a GRU after the encoder, one joint state advancing at every decision point.
+    A recurrent ``memory``: a GRU after the encoder, one joint state advancing at every decision
+    point.
     """
 
     def __init__(
         self,
         spec: EnvSpec,
         *,
-        recurrent: bool = False,
-        option_history: bool = False,
-        memory_norm: bool = False,
+        memory: MemoryDesign = FEED_FORWARD,
         **encoder_kw,
     ) -> None:
         super().__init__()
         self.option_counts = spec.option_counts
         self.encoder = JointEncoder(spec, **encoder_kw)
         self.head = _head(self.encoder.out_dim, math.prod(self.option_counts), POLICY_HEAD_GAIN)
-        self.memory = build_memory(
-            spec, self.encoder.out_dim, 1, recurrent, option_history, memory_norm
-        )
+        self.memory = memory.build(spec.option_counts, self.encoder.out_dim, 1)
 
     def joint_logits(self, obs: ObsBatch) -> Tensor:
         """``[B, K_0, ..., K_{N-1}]`` unconditioned joint logits (feed-forward)."""
@@ -251,16 +230,15 @@ class PartiallyCentralizedPolicy(EncodedPolicy):
 
     Agent i in ``U`` samples from its own joint logits conditioned on ``c`` with the other
     choosing agents marginalised out; the agents share options, not observations.
-    ``recurrent``: one GRU state per agent, advancing only at that agent's own decisions.
+    A recurrent ``memory``: one GRU state per agent, advancing only at that agent's own
+    decisions.
     """
 
     def __init__(
         self,
         spec: EnvSpec,
         *,
-        recurrent: bool = False,
-        option_history: bool = False,
-        memory_norm: bool = False,
+        memory: MemoryDesign = FEED_FORWARD,
         **encoder_kw,
     ) -> None:
         super().__init__()
@@ -273,9 +251,7 @@ class PartiallyCentralizedPolicy(EncodedPolicy):
             _head(enc.out_dim, joint, POLICY_HEAD_GAIN) for enc in self.encoders
         )
         size = self.encoders[0].out_dim
-        self.memory = build_memory(
-            spec, size, spec.num_agents, recurrent, option_history, memory_norm
-        )
+        self.memory = memory.build(spec.option_counts, size, spec.num_agents)
 
     def agent_joint_logits(self, obs: ObsBatch) -> list[Tensor]:
         """Agent i's joint logits ``[B, K_0, ..., K_{N-1}]`` from ``z^i``, for each i
@@ -360,25 +336,21 @@ class JointQNetwork(nn.Module):
 class CentralCritic(nn.Module):
     """``V(z)`` on the joint observation (its own encoder: MAPPO keeps actor and critic apart).
 
-    ``recurrent``: a GRU after the encoder, one joint state advancing at every decision point,
-    used through :meth:`step` and :meth:`sequence` like a recurrent policy's.
+    A recurrent ``memory``: a GRU after the encoder, one joint state advancing at every decision
+    point, used through :meth:`step` and :meth:`sequence` like a recurrent policy's.
     """
 
     def __init__(
         self,
         spec: EnvSpec,
         *,
-        recurrent: bool = False,
-        option_history: bool = False,
-        memory_norm: bool = False,
+        memory: MemoryDesign = FEED_FORWARD,
         **encoder_kw,
     ) -> None:
         super().__init__()
         self.encoder = JointEncoder(spec, **encoder_kw)
         self.head = _head(self.encoder.out_dim, 1, 1.0)
-        self.memory = build_memory(
-            spec, self.encoder.out_dim, 1, recurrent, option_history, memory_norm
-        )
+        self.memory = memory.build(spec.option_counts, self.encoder.out_dim, 1)
 
     @property
     def recurrent(self) -> bool:

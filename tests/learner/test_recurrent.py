@@ -22,6 +22,7 @@ from maopg.learner.mappo import (
 from maopg.policy import (
     AutoregressivePolicy,
     DistributionActor,
+    MemoryDesign,
     OptionMemory,
     PartialFactoredPolicy,
     PartiallyCentralizedPolicy,
@@ -42,7 +43,7 @@ def test_per_agent_states_freeze_while_an_agent_continues_and_restart_with_an_ep
     policy's, before the agents' own) at every decision point."""
     torch.manual_seed(0)
     env = make_env("tool_delivery", "continue", seed=0, overrides=SHORT)
-    policy = policy_class(env.spec, hidden=16, recurrent=True)
+    policy = policy_class(env.spec, hidden=16, memory=MemoryDesign(recurrent=True))
     actor = DistributionActor(policy, greedy=False, seed=1)
     fresh = policy.initial_state(1)
     seen = {"frozen": 0, "advanced": 0, "restarts": 0}
@@ -178,7 +179,7 @@ def test_recurrent_policies_refuse_the_feed_forward_path():
         spec = env.spec
     finally:
         env.close()
-    policy = PartiallyCentralizedPolicy(spec, hidden=8, recurrent=True)
+    policy = PartiallyCentralizedPolicy(spec, hidden=8, memory=MemoryDesign(recurrent=True))
     with pytest.raises(RuntimeError, match="step"):
         policy.distribution(None, None, None, None)  # type: ignore[arg-type]
     with pytest.raises(ValueError, match=r"ppo\.recurrent=true"):
@@ -227,6 +228,8 @@ def test_the_option_history_tells_apart_points_whose_features_are_the_same():
         OptionMemory(4).step(features, torch.zeros(3, 1, 4), no_starts, history=history)
     with pytest.raises(ValueError, match=r"ppo\.option_history=true .* ppo\.recurrent=true"):
         PPOConfig(option_history=True).validate()
+    with pytest.raises(ValueError, match="recurrent"):
+        MemoryDesign(option_history=True)
 
 
 def test_a_normalised_memory_reads_features_of_any_scale_alike():
@@ -250,3 +253,5 @@ def test_a_normalised_memory_reads_features_of_any_scale_alike():
     assert not torch.allclose(saturated, after, atol=1e-2)
     with pytest.raises(ValueError, match=r"ppo\.memory_norm=true .* ppo\.recurrent=true"):
         PPOConfig(memory_norm=True).validate()
+    with pytest.raises(ValueError, match="recurrent"):
+        MemoryDesign(norm=True)
