@@ -149,6 +149,21 @@ def _note_slow_bf16(config: TrainConfig) -> None:
         )
 
 
+def _note_raw_memory(config: TrainConfig) -> None:
+    """Say where a recurrent MAPPO run builds the GRUs that read unnormalised features: they
+    stay the default so that runs saved before ``ppo.memory_norm`` existed load as they
+    trained, but on Water Filling their gates saturated and the greedy policies looped
+    (results/memory/README.md, findings 3 and 4)."""
+    section = config.learner
+    if getattr(section, "recurrent", False) and getattr(section, "memory_norm", True) is False:
+        _note(
+            f"{config.section}.recurrent=true without {config.section}.memory_norm=true: the "
+            "GRUs read the encoders' unnormalised features, which saturated their gates on "
+            f"Water Filling (results/memory/README.md); add {config.section}.memory_norm=true "
+            f"{config.section}.option_history=true, as the memory study does"
+        )
+
+
 def _differences(ours: dict, theirs: dict) -> dict[str, tuple]:
     """The keys of two :meth:`TrainConfig.flat` views that differ, but for RESUMABLE_KEYS."""
     return {
@@ -333,6 +348,7 @@ def _train(config: TrainConfig, lock: RunDirLock, *, resume: bool, overwrite: bo
     if config.torch_threads:
         torch.set_num_threads(config.torch_threads)
     _note_slow_bf16(config)
+    _note_raw_memory(config)
     sample_gen, update_gen = _seed_everything(config.seed)
     method = get_method(config.method)
 

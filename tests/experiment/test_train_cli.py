@@ -188,13 +188,15 @@ def test_every_method_trains_a_tiny_budget(tmp_path, task, method):
         ("async-rnn", 480, ["ppo.option_history=true", "ppo.memory_norm=true"]),
     ],
 )
-def test_kill_and_resume_reproduces_the_uninterrupted_run(tmp_path, method, samples, extra):
+def test_kill_and_resume_reproduces_the_uninterrupted_run(tmp_path, capsys, method, samples, extra):
     """Bit for bit, curve and weights; recurrent runs (per-agent GRU states, carried across
     iterations; GRUs that read the option history) included: their states are in the
-    checkpoint."""
+    checkpoint. A recurrent run without ``ppo.memory_norm`` is told at its start."""
     common = ["--seed", "5", "--total-samples", str(samples), *tiny(method), *extra]
     reference = tmp_path / "reference"
     main([*common, "--run-dir", str(reference)])
+    raw_gru = method.endswith("-rnn") and "ppo.memory_norm=true" not in extra
+    assert ("ppo.recurrent=true without ppo.memory_norm=true" in capsys.readouterr().err) == raw_gru
 
     killed = tmp_path / "killed"
     proc = subprocess.Popen(
