@@ -63,9 +63,9 @@ def option_history(choosing: Tensor, running: Tensor, option_counts: Sequence[in
 
 @dataclass(frozen=True)
 class MemoryDesign:
-    """Which memory a network carries, as one argument: every policy and the critic of a run
-    take the same three settings (``ppo.recurrent``, ``ppo.option_history``,
-    ``ppo.memory_norm``), and a network never reads them apart."""
+    """Which memory a network carries, as one argument: the policy and the critic of a run
+    carry the same one (``ppo.recurrent``, ``ppo.option_history``, ``ppo.memory_norm``), and
+    the last two mean nothing without the first."""
 
     recurrent: bool = False
     option_history: bool = False
