@@ -22,7 +22,6 @@ episodes than the curve's last 10% holds.
 from __future__ import annotations
 
 import argparse
-import csv
 import statistics
 from pathlib import Path
 
@@ -31,17 +30,16 @@ import torch
 from maopg.env.vector import SeededVectorEnv
 from maopg.experiment.config import TrainConfig
 from maopg.experiment.run_dir import CONFIG, FINAL
+from maopg.experiment.runs import RETURN, final, load_run
 from maopg.experiment.sysinfo import markdown
 from maopg.experiment.trainer import build_learner
 from maopg.learner import load_checkpoint
 
 
 def curve_tail(run_dir: Path) -> tuple[float, float]:
-    """The curve's mean over its last 10% of iterations, and its last iteration's return."""
-    with (run_dir / "metrics.csv").open() as f:
-        returns = [float(row["episode_return"]) for row in csv.DictReader(f)]
-    tail = returns[-max(1, len(returns) // 10) :]
-    return statistics.fmean(tail), returns[-1]
+    """The curve's final return (its last 10% of samples, as the tables) and last iteration's."""
+    run = load_run(run_dir)
+    return final(run), float(run.curve(RETURN)[1][-1])
 
 
 def frozen_returns(run_dir: Path, iterations: int, seed: int) -> list[float]:
