@@ -10,6 +10,7 @@ import struct
 import subprocess
 import sys
 import time
+import zlib
 from pathlib import Path
 
 import pytest
@@ -46,17 +47,25 @@ def _wandb_home(tmp_path, monkeypatch):
 def _records(path: Path):
     """The records of a ``.wandb`` file: W&B's LevelDB-style log (a 7-byte header, then 32 KiB
     blocks of chunks, each ``crc32 | length | kind`` + payload; kind 1 whole, 2-4 first,
-    middle, last), each record a ``wandb_internal_pb2.Record``."""
+    middle, last), each record a ``wandb_internal_pb2.Record``.
+
+    The file may be read while W&B's service process is still writing it (``_run_files`` polls
+    for the exit record), so the records end at the first chunk not yet wholly written: one
+    that runs past the end of the file or whose checksum (CRC-32 of kind byte and payload)
+    does not match yet. CI once read a half-written chunk as a corrupt record."""
     data, block = path.read_bytes(), 32 * 1024
     assert data[:4] == b":W&B"
     position, payload = 7, b""
     while position + 7 <= len(data):
         left = block - position % block
-        _, length, kind = struct.unpack("<IHB", data[position : position + 7])
+        crc, length, kind = struct.unpack("<IHB", data[position : position + 7])
         if left < 7 or (length == 0 and kind == 0):  # block padding
             position += left
             continue
-        payload += data[position + 7 : position + 7 + length]
+        chunk = data[position + 7 : position + 7 + length]
+        if len(chunk) < length or zlib.crc32(chunk, zlib.crc32(bytes([kind]))) != crc:
+            return  # the tail W&B is still writing
+        payload += chunk
         position += 7 + length
         if kind in (1, 4):
             record = wandb_internal_pb2.Record()
