@@ -2,15 +2,18 @@
 moved the policy, whether two groups' final returns differ beyond their seeds' noise, and how
 often a run sat at one return.
 
-Run: ``.venv/bin/python bench/run_stats.py LABEL=DIR[,DIR...] ... [--last 10] [--at -150]``.
+Run: ``.venv/bin/python bench/run_stats.py LABEL=DIR[,DIR...] ... [--last 10] [--at -150]
+[--blocks 10]``.
 Each ``LABEL=DIR,...`` is a group: every run directory under those folders (finished or not).
 Prints a Markdown table per group and seed, then each group's mean ± std over seeds:
 
 - final return: the mean over the last 10% of the run's samples (as ``eval table``);
-- ``approx_kl`` and ``clip_fraction``: means over the run's last ``--last`` iterations, the size
-  of its late updates;
+- ``approx_kl``, ``clip_fraction`` and ``entropy``: means over the run's last ``--last``
+  iterations, the size of its late updates and how sure its late policy still is;
 - with ``--at R``: the share of iterations that ended an episode whose mean return is exactly
-  ``R``, and the iterations above it.
+  ``R``, and the iterations above it;
+- with ``--blocks N``: then a table of each run's mean return over consecutive blocks of ``N``
+  iterations, the last block ending at the last iteration, to see where a curve levels off.
 
 Then, for the first group against each other one, the difference of the final returns' means
 and its Welch standard error, ``sqrt(s1²/n1 + s2²/n2)`` with the seeds' sample variances.
@@ -40,6 +43,10 @@ def _group(spec: str) -> tuple[str, list[RunData]]:
     return label, runs
 
 
+LATE = ("approx_kl", "clip_fraction", "entropy")
+"""The columns averaged over a run's last ``--last`` iterations."""
+
+
 def _late(run: RunData, column: str, last: int) -> float:
     values = run.metrics[column][-last:]
     return float(np.nanmean(values))
@@ -50,15 +57,32 @@ def _spread(values: list[float], form: str) -> str:
     return f"{statistics.mean(values):{form}} ± {statistics.pstdev(values):{form}}"
 
 
+def _print_blocks(groups: list[tuple[str, list[RunData]]], size: int) -> None:
+    """Each run's mean return over blocks of ``size`` iterations, aligned to its end, with the
+    samples at each block's end."""
+    print(f"\n| group | seed | mean return of each {size} iterations (samples at the end) |")
+    print("|---|---|---|")
+    for label, runs in groups:
+        for run in runs:
+            returns, samples = run.metrics[RETURN], run.samples
+            ends = range(len(returns), 0, -size)[::-1]
+            blocks = [
+                f"{int(samples[end - 1]):,}: {np.nanmean(returns[max(end - size, 0) : end]):,.0f}"
+                for end in ends
+            ]
+            print(f"| {label} | {run.seed} | {', '.join(blocks)} |")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("groups", nargs="+", help="LABEL=DIR[,DIR...]")
     parser.add_argument("--last", type=int, default=10, help="late iterations (default 10)")
     parser.add_argument("--at", type=float, help="a return to count iterations at")
+    parser.add_argument("--blocks", type=int, help="iterations per block of the block means")
     args = parser.parse_args()
     groups = [_group(spec) for spec in args.groups]
 
-    header = "| group | seed | final return (last 10%) | approx_kl | clip_fraction |"
+    header = "| group | seed | final return (last 10%) |" + "".join(f" {c} |" for c in LATE)
     header += (
         " iterations at the return | above it (samples: return) |" if args.at is not None else ""
     )
@@ -68,7 +92,7 @@ def main() -> None:
     for label, runs in groups:
         for run in runs:
             row = [label, str(run.seed), f"{final(run):,.0f}"]
-            row += [f"{_late(run, c, args.last):.4f}" for c in ("approx_kl", "clip_fraction")]
+            row += [f"{_late(run, c, args.last):.4f}" for c in LATE]
             if args.at is not None:
                 logged = run.metrics[RETURN]  # as logged: a smoothed curve's sums blur it
                 seen = ~np.isnan(logged)
@@ -82,10 +106,13 @@ def main() -> None:
                 row += [f"{at:.1%} of {returns.size}", ", ".join(above) or "none"]
             print("| " + " | ".join(row) + " |")
         finals[label] = [final(run) for run in runs]
-        late = [[_late(run, c, args.last) for run in runs] for c in ("approx_kl", "clip_fraction")]
+        late = [[_late(run, c, args.last) for run in runs] for c in LATE]
         row = [f"**{label}**", f"{len(runs)} seeds", _spread(finals[label], ",.0f")]
         row += [_spread(values, ".4f") for values in late]
         print("| " + " | ".join(row + [""] * (2 if args.at is not None else 0)) + " |")
+
+    if args.blocks:
+        _print_blocks(groups, args.blocks)
 
     first, base = next(iter(finals.items()))
     for label, values in list(finals.items())[1:]:
