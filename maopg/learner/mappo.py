@@ -498,8 +498,8 @@ class MAPPOLearner(Learner):
     policy_key = "policy"
 
     def __init__(self, policy: OptionPolicy, setup: LearnerSetup) -> None:
-        memory = memory_design(setup.config)
-        recurrent = memory.recurrent
+        design = memory_design(setup.config)
+        recurrent = design.recurrent
         if policy.recurrent != recurrent:
             built = "a recurrent" if policy.recurrent else "a feed-forward"
             raise ValueError(
@@ -507,7 +507,7 @@ class MAPPOLearner(Learner):
                 f"{built} {type(policy).__name__}"
             )
         super().__init__(policy, setup)
-        critic = CentralCritic(setup.spec, hidden=setup.hidden, layers=setup.layers, memory=memory)
+        critic = CentralCritic(setup.spec, hidden=setup.hidden, layers=setup.layers, memory=design)
         self.critic = critic.to(self.device)
         set_precision(self.critic, setup.precision)
         self.value_norm = ValueNorm().to(self.device) if self.config.value_norm else None
