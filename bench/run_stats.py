@@ -80,6 +80,9 @@ def main() -> None:
     parser.add_argument("--at", type=float, help="a return to count iterations at")
     parser.add_argument("--blocks", type=int, help="iterations per block of the block means")
     args = parser.parse_args()
+    for name in ("last", "blocks"):
+        if (value := getattr(args, name)) is not None and value < 1:
+            parser.error(f"--{name} is a number of iterations: at least 1, got {value}")
     groups = [_group(spec) for spec in args.groups]
 
     header = "| group | seed | final return (last 10%) |" + "".join(f" {c} |" for c in LATE)
@@ -90,9 +93,10 @@ def main() -> None:
     print("|" + "---|" * (header.count("|") - 1))
     finals: dict[str, list[float]] = {}
     for label, runs in groups:
-        for run in runs:
+        late = [[_late(run, c, args.last) for c in LATE] for run in runs]
+        for run, run_late in zip(runs, late, strict=True):
             row = [label, str(run.seed), f"{final(run):,.0f}"]
-            row += [f"{_late(run, c, args.last):.4f}" for c in LATE]
+            row += [f"{value:.4f}" for value in run_late]
             if args.at is not None:
                 logged = run.metrics[RETURN]  # as logged: a smoothed curve's sums blur it
                 seen = ~np.isnan(logged)
@@ -106,12 +110,11 @@ def main() -> None:
                 row += [f"{at:.1%} of {returns.size}", ", ".join(above) or "none"]
             print("| " + " | ".join(row) + " |")
         finals[label] = [final(run) for run in runs]
-        late = [[_late(run, c, args.last) for run in runs] for c in LATE]
         row = [f"**{label}**", f"{len(runs)} seeds", _spread(finals[label], ",.0f")]
-        row += [_spread(values, ".4f") for values in late]
+        row += [_spread(list(values), ".4f") for values in zip(*late, strict=True)]
         print("| " + " | ".join(row + [""] * (2 if args.at is not None else 0)) + " |")
 
-    if args.blocks:
+    if args.blocks is not None:
         _print_blocks(groups, args.blocks)
 
     first, base = next(iter(finals.items()))
