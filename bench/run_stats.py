@@ -37,7 +37,10 @@ def _group(spec: str) -> tuple[str, list[RunData]]:
     label, sep, dirs = spec.partition("=")
     if not sep or not dirs:
         raise SystemExit(f"error: a group is LABEL=DIR[,DIR...], got {spec!r}")
-    runs = discover_runs(dirs.split(","), unfinished=True)
+    try:
+        runs = discover_runs(dirs.split(","), unfinished=True)
+    except FileNotFoundError as exc:
+        raise SystemExit(f"error: {exc}") from None
     if not runs:
         raise SystemExit(f"error: no run directory under {dirs!r}")
     return label, runs
@@ -48,13 +51,20 @@ LATE = ("approx_kl", "clip_fraction", "entropy")
 
 
 def _late(run: RunData, column: str, last: int) -> float:
-    values = run.metrics[column][-last:]
-    return float(np.nanmean(values))
+    """The column's mean over the run's last ``last`` iterations; ``nan`` for a run that does
+    not log it (Mac-DQN has no PPO update to measure)."""
+    if column not in run.metrics:
+        return math.nan
+    return float(np.nanmean(run.metrics[column][-last:]))
 
 
 def _spread(values: list[float], form: str) -> str:
-    """Mean ± standard deviation over seeds (population, as ``eval table`` writes it)."""
-    return f"{statistics.mean(values):{form}} ± {statistics.pstdev(values):{form}}"
+    """Mean ± standard deviation over the seeds that have the figure (population, as ``eval
+    table`` writes it); ``n/a`` where none has it."""
+    known = [value for value in values if not math.isnan(value)]
+    if not known:
+        return "n/a"
+    return f"{statistics.mean(known):{form}} ± {statistics.pstdev(known):{form}}"
 
 
 def _print_blocks(groups: list[tuple[str, list[RunData]]], size: int) -> None:
