@@ -9,7 +9,8 @@ Prints a Markdown table per group and seed, then each group's mean ± std over s
 
 - final return: the mean over the last 10% of the run's samples (as ``eval table``);
 - ``approx_kl``, ``clip_fraction`` and ``entropy``: means over the run's last ``--last``
-  iterations, the size of its late updates and how sure its late policy still is;
+  iterations, the size of its late updates and how sure its late policy still is (``n/a``
+  for a Mac-DQN run, which logs no PPO update; a group's spread says how many seeds it has);
 - with ``--at R``: the share of iterations that ended an episode whose mean return is exactly
   ``R``, and the iterations above it;
 - with ``--blocks N``: then a table of each run's mean return over consecutive blocks of ``N``
@@ -39,7 +40,7 @@ def _group(spec: str) -> tuple[str, list[RunData]]:
         raise SystemExit(f"error: a group is LABEL=DIR[,DIR...], got {spec!r}")
     try:
         runs = discover_runs(dirs.split(","), unfinished=True)
-    except FileNotFoundError as exc:
+    except (OSError, ValueError) as exc:  # a missing folder, an unreadable run
         raise SystemExit(f"error: {exc}") from None
     if not runs:
         raise SystemExit(f"error: no run directory under {dirs!r}")
@@ -53,18 +54,28 @@ LATE = ("approx_kl", "clip_fraction", "entropy")
 def _late(run: RunData, column: str, last: int) -> float:
     """The column's mean over the run's last ``last`` iterations; ``nan`` for a run that does
     not log it (Mac-DQN has no PPO update to measure)."""
-    if column not in run.metrics:
-        return math.nan
-    return float(np.nanmean(run.metrics[column][-last:]))
+    values = run.metrics.get(column, np.array([]))[-last:]
+    return float(np.nanmean(values)) if np.any(~np.isnan(values)) else math.nan
 
 
 def _spread(values: list[float], form: str) -> str:
     """Mean ± standard deviation over the seeds that have the figure (population, as ``eval
-    table`` writes it); ``n/a`` where none has it."""
-    known = [value for value in values if not math.isnan(value)]
+    table`` writes it), saying how many have it when some do not; ``n/a`` where none has it."""
+    known = _known(values)
     if not known:
         return "n/a"
-    return f"{statistics.mean(known):{form}} ± {statistics.pstdev(known):{form}}"
+    spread = f"{statistics.mean(known):{form}} ± {statistics.pstdev(known):{form}}"
+    return spread if len(known) == len(values) else f"{spread} ({len(known)} of {len(values)})"
+
+
+def _figure(value: float, form: str) -> str:
+    return "n/a" if math.isnan(value) else f"{value:{form}}"
+
+
+def _known(values: list[float]) -> list[float]:
+    """The figures a run has: a run with no iteration in reach (an empty ``metrics.csv``, a
+    Mac-DQN run's PPO columns) gives ``nan``."""
+    return [value for value in values if not math.isnan(value)]
 
 
 def _print_blocks(groups: list[tuple[str, list[RunData]]], size: int) -> None:
@@ -105,8 +116,8 @@ def main() -> None:
     for label, runs in groups:
         late = [[_late(run, c, args.last) for c in LATE] for run in runs]
         for run, run_late in zip(runs, late, strict=True):
-            row = [label, str(run.seed), f"{final(run):,.0f}"]
-            row += [f"{value:.4f}" for value in run_late]
+            row = [label, str(run.seed), _figure(final(run), ",.0f")]
+            row += [_figure(value, ".4f") for value in run_late]
             if args.at is not None:
                 logged = run.metrics[RETURN]  # as logged: a smoothed curve's sums blur it
                 seen = ~np.isnan(logged)
@@ -128,7 +139,9 @@ def main() -> None:
         _print_blocks(groups, args.blocks)
 
     first, base = next(iter(finals.items()))
-    for label, values in list(finals.items())[1:]:
+    base = _known(base)
+    for label, group_finals in list(finals.items())[1:]:
+        values = _known(group_finals)
         if min(len(base), len(values)) < 2:
             continue
         diff = statistics.mean(base) - statistics.mean(values)

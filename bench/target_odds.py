@@ -31,15 +31,14 @@ from pathlib import Path
 
 import numpy as np
 
-from maopg.experiment.runs import RETURN, RunData, discover_runs
-
-FINAL_FRACTION = 0.1
-"""The share of a run's samples its final return averages (``maopg.experiment.runs.final``)."""
+from maopg.experiment.runs import FINAL_FRACTION, RETURN, RunData, discover_runs
 
 
 def final_episode_counts(run: RunData) -> list[int]:
     """Episodes ended by each iteration of the run's final 10% that reported a return, the
-    iterations :func:`maopg.experiment.runs.final` averages."""
+    iterations :func:`maopg.experiment.runs.final` averages (none for a run with no rows)."""
+    if not run.samples.size:
+        return []
     in_tail = run.samples > run.samples[-1] * (1.0 - FINAL_FRACTION)
     reported = ~np.isnan(run.metrics[RETURN])
     return [int(n) for n in run.metrics["episodes"][in_tail & reported]]
@@ -60,6 +59,34 @@ def draw_measurements(
     return np.mean(per_run, axis=0)
 
 
+def draw_mean_errors(returns: np.ndarray, draws: int, rng: np.random.Generator) -> np.ndarray:
+    """``draws`` bootstrap errors of the reference's mean (a resample's mean minus the mean):
+    added to the readings, they fold in that the reference's expected return is itself only
+    measured, over ``returns.size`` episodes. Drawn in chunks to bound the memory."""
+    chunk = max(1, 5_000_000 // returns.size)
+    errors = [
+        rng.choice(returns, size=(min(chunk, draws - start), returns.size)).mean(axis=1)
+        for start in range(0, draws, chunk)
+    ]
+    return np.concatenate(errors) - returns.mean()
+
+
+def _read_evaluation(path: Path) -> tuple[dict, np.ndarray]:
+    """The summary and the per-episode returns of a ``python -m eval evaluate --json`` file."""
+    try:
+        result = json.loads(path.read_text())
+        summary = {key: result[key] for key in ("label", "task", "strategy", "seed")}
+        returns = np.asarray(result["per_episode"]["returns"], dtype=np.float64)
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise SystemExit(
+            f"error: {path} is not a JSON of `python -m eval evaluate --json`: "
+            f"{type(exc).__name__}: {exc}"
+        ) from None
+    if returns.ndim != 1 or returns.size < 2 or not np.all(np.isfinite(returns)):
+        raise SystemExit(f"error: {path} holds no list of at least 2 finite episode returns")
+    return summary, returns
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("evaluation", type=Path, help="JSON of `python -m eval evaluate --json`")
@@ -70,42 +97,47 @@ def main() -> None:
     args = parser.parse_args()
     if args.draws < 2:
         parser.error(f"--draws is a number of readings: at least 2, got {args.draws}")
-    try:
-        result = json.loads(args.evaluation.read_text())
-        returns = np.asarray(result["per_episode"]["returns"], dtype=np.float64)
-    except (OSError, ValueError, KeyError, TypeError) as exc:
-        parser.error(f"{args.evaluation} is not a JSON of `python -m eval evaluate --json`: {exc}")
+    if not np.isfinite(args.target):
+        parser.error(f"--target is a return: a finite number, got {args.target}")
+    reference, returns = _read_evaluation(args.evaluation)
     try:
         runs = discover_runs(args.runs.split(","), unfinished=True)
-    except FileNotFoundError as exc:
-        parser.error(str(exc))
+    except (OSError, ValueError) as exc:
+        raise SystemExit(f"error: {exc}") from None
     if not runs:
-        parser.error(f"no run directory under {args.runs!r}")
+        raise SystemExit(f"error: no run directory under {args.runs!r}")
+    if other := sorted({run.task for run in runs} - {reference["task"]}):
+        raise SystemExit(
+            f"error: the reference played {reference['task']}, the runs {', '.join(other)}"
+        )
     counts = [final_episode_counts(run) for run in runs]
-    if not all(counts):
-        parser.error("a run has no iteration with a return in its final 10%")
+    if empty := [str(run.path) for run, c in zip(runs, counts, strict=True) if not c]:
+        raise SystemExit(f"error: no iteration with a return in the final 10% of {empty[0]}")
 
-    readings = draw_measurements(returns, counts, args.draws, np.random.default_rng(args.seed))
-    mean = float(returns.mean())
+    rng = np.random.default_rng(args.seed)
+    readings = draw_measurements(returns, counts, args.draws, rng)
+    measured = readings + draw_mean_errors(returns, args.draws, rng)
+    mean, error = float(returns.mean()), float(returns.std() / np.sqrt(returns.size))
     print(
         f"- python: {platform.python_version()}, numpy: {np.__version__}\n"
         f"- draws: {args.draws:,}, seed {args.seed}\n"
-        f"- reference: {result['label']} on {result['task']} ({result['strategy']}), "
-        f"{returns.size} episodes reset from seed {result['seed']}: mean {mean:,.0f}, "
-        f"standard deviation {returns.std():,.0f}, standard error "
-        f"{returns.std() / np.sqrt(returns.size):,.0f}\n"
-        f"- measurement: the mean over {len(runs)} runs of each one's final 10% ("
+        f"- reference: {reference['label']} on {reference['task']} ({reference['strategy']}), "
+        f"{returns.size} episodes reset from seed {reference['seed']}: mean {mean:,.0f}, "
+        f"standard deviation {returns.std():,.0f}, standard error {error:,.0f}\n"
+        f"- measurement: the mean over the runs of each one's final 10% (runs: {len(runs)}; "
         + "; ".join(f"{sum(c)} episodes over {len(c)} iterations" for c in counts)
         + ")\n\n"
         f"The reference's own readings: mean {readings.mean():,.0f}, standard deviation "
         f"{readings.std():,.0f}; at or above {args.target:,.0f} in "
-        f"{np.mean(readings >= args.target):.1%} of draws.\n\n"
+        f"{np.mean(readings >= args.target):.1%} of draws, and in "
+        f"{np.mean(measured >= args.target):.1%} with the uncertainty of the reference's "
+        "mean folded in.\n\n"
         "| to read at or above the target with probability | expected return needed "
-        "| against the reference's |\n|---|---|---|"
+        "| against the reference's mean (± its standard error) |\n|---|---|---|"
     )
     for q in (0.5, 0.95):
         need = args.target + mean - float(np.quantile(readings, 1.0 - q))
-        print(f"| {q:.0%} | {need:,.0f} | {need - mean:+,.0f} |")
+        print(f"| {q:.0%} | {need:,.0f} | {need - mean:+,.0f} ± {error:,.0f} |")
 
 
 if __name__ == "__main__":

@@ -39,6 +39,9 @@ from maopg.experiment.run_dir import CONFIG, DONE, METRICS
 
 RETURN = "episode_return"
 PAPER_METRIC = "option_step_reward"
+FINAL_FRACTION = 0.1
+"""The share of a run's samples its final figure averages (:func:`final`): the "final 10%" of
+the tables and of the issues' targets."""
 
 
 @dataclass
@@ -307,7 +310,7 @@ def peak(run: RunData, metric: str = RETURN, window: int = 1) -> float:
     return float(values.max()) if values.size else math.nan
 
 
-def final(run: RunData, metric: str = RETURN, fraction: float = 0.1) -> float:
+def final(run: RunData, metric: str = RETURN, fraction: float = FINAL_FRACTION) -> float:
     """Mean per-iteration ``metric`` over the last ``fraction`` of the run's samples (``nan`` if
     none reported there): where training ended, which a peak alone does not tell."""
     if not run.samples.size:
