@@ -114,9 +114,10 @@ def main() -> None:
     print("|" + "---|" * (header.count("|") - 1))
     finals: dict[str, list[float]] = {}
     for label, runs in groups:
+        finals[label] = [final(run) for run in runs]
         late = [[_late(run, c, args.last) for c in LATE] for run in runs]
-        for run, run_late in zip(runs, late, strict=True):
-            row = [label, str(run.seed), _figure(final(run), ",.0f")]
+        for run, run_final, run_late in zip(runs, finals[label], late, strict=True):
+            row = [label, str(run.seed), _figure(run_final, ",.0f")]
             row += [_figure(value, ".4f") for value in run_late]
             if args.at is not None:
                 logged = run.metrics[RETURN]  # as logged: a smoothed curve's sums blur it
@@ -130,7 +131,6 @@ def main() -> None:
                 ]
                 row += [f"{at:.1%} of {returns.size}", ", ".join(above) or "none"]
             print("| " + " | ".join(row) + " |")
-        finals[label] = [final(run) for run in runs]
         row = [f"**{label}**", f"{len(runs)} seeds", _spread(finals[label], ",.0f")]
         row += [_spread(list(values), ".4f") for values in zip(*late, strict=True)]
         print("| " + " | ".join(row + [""] * (2 if args.at is not None else 0)) + " |")

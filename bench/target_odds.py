@@ -31,17 +31,12 @@ from pathlib import Path
 
 import numpy as np
 
-from maopg.experiment.runs import FINAL_FRACTION, RETURN, RunData, discover_runs
+from maopg.experiment.runs import RunData, discover_runs, final_iterations
 
 
 def final_episode_counts(run: RunData) -> list[int]:
-    """Episodes ended by each iteration of the run's final 10% that reported a return, the
-    iterations :func:`maopg.experiment.runs.final` averages (none for a run with no rows)."""
-    if not run.samples.size:
-        return []
-    in_tail = run.samples > run.samples[-1] * (1.0 - FINAL_FRACTION)
-    reported = ~np.isnan(run.metrics[RETURN])
-    return [int(n) for n in run.metrics["episodes"][in_tail & reported]]
+    """Episodes ended by each iteration the run's final return averages."""
+    return [int(n) for n in run.column("episodes")[final_iterations(run)]]
 
 
 def draw_measurements(
@@ -124,7 +119,9 @@ def main() -> None:
         f"- reference: {reference['label']} on {reference['task']} ({reference['strategy']}), "
         f"{returns.size} episodes reset from seed {reference['seed']}: mean {mean:,.0f}, "
         f"standard deviation {returns.std():,.0f}, standard error {error:,.0f}\n"
-        f"- measurement: the mean over the runs of each one's final 10% (runs: {len(runs)}; "
+        f"- target: {args.target:,.0f}, {args.target - mean:+,.0f} against the reference's mean\n"
+        f"- measurement: the mean over the runs of each one's final 10% (runs: {len(runs)}, "
+        f"{sum(map(sum, counts)):,} episodes; "
         + "; ".join(f"{sum(c)} episodes over {len(c)} iterations" for c in counts)
         + ")\n\n"
         f"The reference's own readings: mean {readings.mean():,.0f}, standard deviation "

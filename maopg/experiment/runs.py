@@ -60,12 +60,17 @@ class RunData:
     config: dict[str, Any] = field(default_factory=dict)
     """The resolved ``config.json``, flattened to command-line keys (``ppo.lr``, ``env.jars``)."""
 
+    def column(self, metric: str) -> np.ndarray:
+        """The per-iteration values of ``metric``; a ``KeyError`` naming the file if the run
+        does not log it."""
+        if metric not in self.metrics:
+            raise KeyError(f"{self.path / METRICS} has no column {metric!r}")
+        return self.metrics[metric]
+
     def curve(self, metric: str = RETURN, window: int = 1) -> tuple[np.ndarray, np.ndarray]:
         """``(samples, values)`` of ``metric`` over iterations that reported it, smoothed by a
         trailing mean over the last ``window`` such iterations."""
-        if metric not in self.metrics:
-            raise KeyError(f"{self.path / METRICS} has no column {metric!r}")
-        values = self.metrics[metric]
+        values = self.column(metric)
         seen = ~np.isnan(values)
         return self.samples[seen], trailing_mean(values[seen], window)
 
@@ -313,11 +318,24 @@ def peak(run: RunData, metric: str = RETURN, window: int = 1) -> float:
 def final(run: RunData, metric: str = RETURN, fraction: float = FINAL_FRACTION) -> float:
     """Mean per-iteration ``metric`` over the last ``fraction`` of the run's samples (``nan`` if
     none reported there): where training ended, which a peak alone does not tell."""
-    if not run.samples.size:
-        return math.nan
-    samples, values = run.curve(metric)
-    tail = values[samples > run.samples[-1] * (1.0 - fraction)]
+    rows = final_iterations(run, metric, fraction)
+    # The curve's values (over the rows that reported the metric) are what the tables have
+    # always averaged: a trailing mean of one differs from the logged value in its last bits.
+    tail = run.curve(metric)[1][rows[~np.isnan(run.column(metric))]]
     return float(tail.mean()) if tail.size else math.nan
+
+
+def final_iterations(
+    run: RunData, metric: str = RETURN, fraction: float = FINAL_FRACTION
+) -> np.ndarray:
+    """The iterations :func:`final` averages, as a mask over the run's rows: those in the last
+    ``fraction`` of its samples that reported ``metric``. A measurement built on the final
+    figure that needs more of those rows (``bench/target_odds.py``: the episodes each ended)
+    reads the very same ones."""
+    if not run.samples.size:
+        return np.zeros(0, dtype=bool)
+    in_tail = run.samples > run.samples[-1] * (1.0 - fraction)
+    return in_tail & ~np.isnan(run.column(metric))
 
 
 def samples_to_threshold(
