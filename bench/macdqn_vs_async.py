@@ -12,8 +12,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from maopg.experiment.reproduce import log_to_stderr, run_grid
 from maopg.experiment.runs import discover_runs
+from maopg.experiment.studies.grid import log_to_stderr, run_grid
 from maopg.experiment.sysinfo import markdown
 from maopg.experiment.tables import peak_table, threshold_table
 

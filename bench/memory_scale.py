@@ -4,7 +4,8 @@ gates are, and the scale of what its head reads, beside a feed-forward policy's 
 Run: ``.venv/bin/python bench/memory_scale.py [CHECKPOINT ...] [--episodes 1]`` (default: seed 0
 of feed-forward ``async`` and of recurrent ``async``: without option history or normalisation
 (``results/memory/unnormalised``), with the option history only (a pilot), and with both (the
-``memory`` study's runs)).
+``memory`` study's runs)). The two middle ones are in the history, not the tree:
+``git checkout 3d01192 -- results/memory/unnormalised results/memory/pilots`` restores them.
 
 Our encoders end in a ReLU with no normalisation, so their features can be large. A GRU cell's
 gates are sigmoids and a tanh of affine maps of its input: fed large inputs they sit near 0 or 1
@@ -116,6 +117,9 @@ def main() -> None:
     parser.add_argument("checkpoints", nargs="*", type=Path, default=DEFAULT)
     parser.add_argument("--episodes", type=int, default=1, help="per checkpoint (%(default)s)")
     args = parser.parse_args()
+    missing = [str(path) for path in args.checkpoints if not path.exists()]
+    if missing:
+        parser.error(f"no such checkpoint {missing[0]} (the module docstring says how to restore)")
     torch.set_num_threads(1)
     print("### What a recurrent policy's GRU reads and returns (`bench/memory_scale.py`)\n")
     print(markdown())

@@ -8,7 +8,10 @@ so any command line can use it::
     python -m eval evaluate --import examples.berries --reference scripted --task berries
 
 (``--import`` is remembered by the run: ``--resume`` and ``eval evaluate --checkpoint`` import
-it again.) The rules: four bushes ripen at random (each tick an unripe bush ripens with
+it again.) It also registers a study of its own, which reproduces a small comparison on it::
+
+    python -m eval reproduce --import examples.berries --study berries
+ The rules: four bushes ripen at random (each tick an unripe bush ripens with
 probability ``ripen_prob``); a picker's option ``Harvest(b)`` walks to bush ``b`` at one metre
 per tick — so options last as long as the walk, and the two pickers decide asynchronously —
 and harvests it on arrival: +10 if it is ripe (it is then bare again), nothing otherwise. Every
@@ -23,6 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from maopg.experiment.studies import Study, StudyTask, register_study
 from maopg.options.base import Execution, Option
 from maopg.settings import setting
 from maopg.tasks import ObsLayout, Task, TaskConfig, register_task
@@ -169,5 +173,16 @@ register_task(
     config=BerryConfig,
     scripted=scripted_policy,
     train_defaults={"batch_ticks": 400, "total_samples": 20_000, "images": False},
-    threshold=85.0,
+)
+register_study(
+    "berries",
+    lambda: Study(
+        "berries",
+        "the paper's method against its partially centralized variant on the berry field",
+        # Near the scripted pickers' 92 (python -m eval evaluate --import examples.berries
+        # --reference scripted --task berries --episodes 20).
+        (StudyTask("berries", (0, 1, 2), threshold=85.0),),
+        ("async", "partial"),
+        normalised=True,
+    ),
 )

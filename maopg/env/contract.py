@@ -44,25 +44,18 @@ option (what a conditional policy's joint sample contains) or be ``-1``.
 
 from __future__ import annotations
 
-import enum
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from maopg.options.base import option_index
+from maopg.options.base import Strategy, option_index
 
 if TYPE_CHECKING:  # at run time the contract stays free of the task layer's imports
     from maopg.tasks.layout import ObsLayout
 
 
-class Strategy(enum.StrEnum):
-    """How option terminations of different agents are reconciled (docs/DESIGN.md §3)."""
-
-    CONTINUE = "continue"
-    ANY = "any"
-    ALL = "all"
-    PRIMITIVE = "primitive"
+__all__ = ["AgentSpec", "DecisionPoint", "EnvSpec", "Strategy"]
 
 
 @dataclass(frozen=True)

@@ -27,6 +27,7 @@ import json
 import os
 import sys
 import types
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Union, get_args, get_origin, get_type_hints
@@ -44,8 +45,8 @@ from maopg.learner.mappo import PPOConfig
 from maopg.policy import PRECISIONS
 from maopg.settings import Settings, setting
 from maopg.sim.egl_check import gl_problem
-from maopg.tasks import make_config, task_entry
-from maopg.tasks.base import MAX_IMAGE_SIZE
+from maopg.tasks import make_config, task_class, task_entry
+from maopg.tasks.base import MAX_IMAGE_SIZE, require_strategy
 
 GENERIC_DEFAULTS: dict[str, Any] = {
     "batch_ticks": 1000,
@@ -155,6 +156,22 @@ class TrainConfig(Settings):
     """Seeded episodes the final policy plays at the end, greedy and sampled, for TensorBoard
     (``eval/return_greedy``, ``eval/return_sampled``, option choices per agent); 0 skips it, as
     the reproduction grid does (its ``evaluation.md`` evaluates every run's weights itself)."""
+    eval_every: int = setting(0, ge=0)
+    """Evaluation during training, the curve published results plot: after the iteration that
+    reaches each multiple of this many samples, the policy plays ``eval_during_episodes``
+    episodes in an environment of its own, and that row's ``eval_return``, ``eval_return_std``,
+    ``eval_success`` and ``eval_length`` hold the outcome (``nan`` in the other rows). 0 (the
+    default) evaluates nothing and writes no such column. The episodes and the draws come
+    from seeds of their own (:func:`maopg.experiment.evaluate.evaluation_seeds`), so the
+    training columns are the same bit for bit with it on or off."""
+    eval_during_episodes: int = setting(10, ge=1)
+    """Episodes per evaluation during training (``eval_every``), each bounded at
+    :data:`~maopg.experiment.evaluate.EVAL_MAX_TICKS` ticks as the final evaluation's; 10 as
+    ACAC evaluates for its published curves."""
+    eval_during_sample: bool = True
+    """Evaluation during training samples its options from the policy, as published curves do
+    (ACAC samples from its softmax; Mac-DQN: ε-greedy at its final ε); ``false`` takes the
+    greedy option (Mac-DQN: ε 0)."""
     video_sample: bool = True
     """Sample the video's options from the policy, as in training (Mac-DQN: ε-greedy at its
     final ε); ``false`` takes the greedy option. The greedy policy can loop where the stochastic
@@ -186,7 +203,8 @@ class TrainConfig(Settings):
         return get_method(self.method).section
 
     def resolved(self) -> TrainConfig:
-        """A copy with every ``None`` replaced by its default, validated (``ValueError``)."""
+        """A copy with every ``None`` replaced by its default, validated (``ValueError``): the
+        method's strategy among those its task runs under too."""
         method = get_method(self.method)
         defaults = {**GENERIC_DEFAULTS, **task_entry(self.task).train_defaults}
         cfg = dataclasses.replace(
@@ -216,6 +234,7 @@ class TrainConfig(Settings):
             raise ValueError(WANDB_HINT)
         cfg.learner.validate()
         make_config(cfg.task, cfg.env_overrides)  # the task settings' names and kinds
+        require_strategy(task_class(cfg.task), cfg.task, cfg.strategy, method=cfg.method)
         return cfg
 
     def rendering_problem(self) -> str | None:
@@ -394,32 +413,46 @@ def parse_overrides(items: list[str], method: str) -> dict[str, Any]:
     values for :func:`merge` (``{"num_envs": 8, "ppo": {"epochs": 5}, "env_overrides":
     {"max_ticks": 100}}``). The only section accepted is the method's own; a flat MAPPO key
     (``epochs=5``) is read as ``ppo.epochs=5`` with a deprecation message on stderr."""
+    return _place_settings([split_assignment(item) for item in items], method, parse=True)
+
+
+def nest_settings(settings: Mapping[str, Any], method: str) -> dict[str, Any]:
+    """Typed settings under their command-line names (``{"ppo.epochs": 5, "env.max_ticks":
+    100}``) for a run of ``method`` → values for :func:`merge`, placed as
+    :func:`parse_overrides` places them (a study's settings: no text to read)."""
+    return _place_settings(list(settings.items()), method, parse=False)
+
+
+def _place_settings(pairs: list[tuple[str, Any]], method: str, *, parse: bool) -> dict[str, Any]:
+    """Each ``(key, value)`` in the field, section or task setting its key names (``parse``:
+    the value is command-line text, read as the field's type)."""
     own = get_method(method).section
     sections = section_classes()
     values: dict[str, Any] = {}
-    for item in items:
-        key, text = split_assignment(item)
+    for key, given in pairs:
+        item = f"{key}={given}"
         section, dot, name = key.partition(".")
         if not dot and key in LEGACY_FLAT_KEYS and key not in _run_fields():
             if own != "ppo":
                 raise ValueError(f"{key!r} is a MAPPO hyper-parameter; method {method!r} has none")
             print(
-                f"warning: {key}={text} is deprecated and will be removed in the next release; "
-                f"write ppo.{key}={text}",
+                f"warning: {item} is deprecated and will be removed in the next release; "
+                f"write ppo.{item}",
                 file=sys.stderr,
             )
             section, name, dot = "ppo", key, "."
         if not dot:
-            values[key] = _parse_field(TrainConfig, key, text, "")
+            values[key] = _field_value(TrainConfig, key, given, "", parse)
         elif section == "env":
-            values.setdefault("env_overrides", {}).update(parse_task_settings([f"{name}={text}"]))
+            setting = parse_task_settings([f"{name}={given}"])[name] if parse else given
+            values.setdefault("env_overrides", {})[name] = setting
         elif section in RUN_SECTIONS:
-            values.setdefault(section, {})[name] = _parse_field(
-                RUN_SECTIONS[section], name, text, f"{section}."
+            values.setdefault(section, {})[name] = _field_value(
+                RUN_SECTIONS[section], name, given, f"{section}.", parse
             )
         elif section == own:
-            values.setdefault(section, {})[name] = _parse_field(
-                sections[section], name, text, f"{section}."
+            values.setdefault(section, {})[name] = _field_value(
+                sections[section], name, given, f"{section}.", parse
             )
         elif section in sections:
             raise ValueError(
@@ -435,11 +468,13 @@ def _run_fields() -> list[str]:
     return sorted(f.name for f in dataclasses.fields(TrainConfig) if f.name not in NOT_RUN_FIELDS)
 
 
-def _parse_field(cls: type, name: str, text: str, prefix: str) -> Any:
+def _field_value(cls: type, name: str, given: Any, prefix: str, parse: bool) -> Any:
+    """``given`` for field ``name`` of ``cls`` (an unknown name is an error listing the known
+    ones), read from command-line text where ``parse``."""
     hints = get_type_hints(cls)
     fields = (
         _run_fields() if cls is TrainConfig else sorted(f.name for f in dataclasses.fields(cls))
     )
     if name not in fields:
         raise ValueError(f"unknown config key {prefix + name!r}; known: {fields}")
-    return _parse_value(text, hints[name], prefix + name)
+    return _parse_value(given, hints[name], prefix + name) if parse else given

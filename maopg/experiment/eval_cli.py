@@ -162,8 +162,12 @@ def _policy_and_env(args: argparse.Namespace):
         c = trained.config
         label = f"{c.method} seed{c.seed} @ {trained.samples} samples"
         return label, trained.label(greedy=not args.sample), env, policy
-    task = args.task or "tool_delivery"
-    env = make_env(task, args.strategy or "continue", seed=args.seed, overrides=settings)
+    from maopg.tasks import task_class
+    from maopg.tasks.base import require_strategy
+
+    task, strategy = args.task or "tool_delivery", args.strategy or "continue"
+    require_strategy(task_class(task), task, strategy)
+    env = make_env(task, strategy, seed=args.seed, overrides=settings)
     return args.reference, args.reference, env, reference_policy(args.reference, env, args.seed)
 
 
@@ -238,7 +242,7 @@ def cmd_plot(args: argparse.Namespace) -> int:
         raise ValueError(f"no {_which(args)} run directories under {args.runs}")
     references = None
     if args.reference_episodes > 0 and args.metric == "episode_return":
-        from maopg.experiment.reproduce import reference_lines
+        from maopg.experiment.studies.results import reference_lines
 
         plotted = [r for r in runs if args.methods is None or r.method in args.methods]
         references, notes = reference_lines(
@@ -260,12 +264,13 @@ def cmd_plot(args: argparse.Namespace) -> int:
 
 def cmd_table(args: argparse.Namespace) -> int:
     from maopg.experiment.runs import discover_runs
+    from maopg.experiment.studies import declared_thresholds
     from maopg.experiment.tables import peak_table, threshold_table
 
     runs = discover_runs(args.runs, unfinished=args.unfinished)
     if not runs:
         raise ValueError(f"no {_which(args)} run directories under {args.runs}")
-    thresholds = _thresholds(args.threshold)
+    thresholds = {**declared_thresholds(), **_thresholds(args.threshold)}
     text = (
         "## Peak performance\n\n"
         + peak_table(runs, window=args.window, methods=args.methods)
@@ -281,8 +286,8 @@ def cmd_table(args: argparse.Namespace) -> int:
 
 
 def cmd_reproduce(args: argparse.Namespace) -> int:
-    from maopg.experiment.reproduce import reproduce
     from maopg.experiment.studies import get_study, study_names
+    from maopg.experiment.studies.results import reproduce
 
     _retired_set(args, "")
     if args.list_studies:
@@ -322,9 +327,10 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from maopg.experiment.methods import grid_method_names, method_names
-    from maopg.experiment.studies import PAPER, study_names
-    from maopg.tasks import task_entry, task_names
+    from maopg.experiment.methods import method_names
+    from maopg.experiment.studies import PAPER, get_study, study_names
+
+    paper = get_study(PAPER)
 
     parser = Parser(prog=PROG, description=__doc__.split("\n")[0])
     add_common_options(parser)
@@ -361,7 +367,9 @@ def build_parser() -> argparse.ArgumentParser:
             p.add_argument(
                 "--metric",
                 default="episode_return",
-                choices=("episode_return", "option_step_reward"),
+                choices=("episode_return", "option_step_reward", "eval_return"),
+                help="eval_return: the evaluation during training, of runs trained with "
+                "eval_every (default %(default)s)",
             )
             p.add_argument(
                 "--reference-episodes",
@@ -399,14 +407,14 @@ def build_parser() -> argparse.ArgumentParser:
         "--methods",
         nargs="+",
         choices=method_names(),
-        help=f"instead of the study's (paper: {' '.join(grid_method_names())})",
+        help=f"instead of the study's (paper: {' '.join(paper.methods)})",
     )
     p.add_argument(
         "--seeds",
         nargs="+",
         type=int,
         help="for every task (default: the study's; paper: "
-        + ", ".join(f"{t} {len(task_entry(t).grid_seeds)} seeds" for t in task_names())
+        + ", ".join(f"{t.task} {len(t.seeds)} seeds" for t in paper.tasks)
         + ")",
     )
     _settings_args(

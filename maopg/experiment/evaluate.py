@@ -5,14 +5,19 @@ paper's Tool Delivery numbers are the mean **option-step reward** (the summed re
 decision step, averaged over the steps of a batch); it is reported beside the return, in its
 own field, and the two must never be compared with each other.
 
-The evaluation after training bounds each episode at :data:`EVAL_MAX_TICKS` ticks, as the
-video is bounded, so a run with ``env.max_ticks=1000000000`` still finishes;
+The evaluations during and after training bound each episode at :data:`EVAL_MAX_TICKS` ticks,
+as the video is bounded, so a run with ``env.max_ticks=1000000000`` still finishes;
 ``python -m eval evaluate``, the user's own evaluation, plays every episode to its end.
+
+The evaluation during training (``eval_every``, the curve published results plot) plays
+:func:`evaluate` too; :func:`evaluation_due`, :func:`evaluation_seeds` and
+:func:`evaluation_row` say when, from which seeds, and what goes in the row.
 """
 
 from __future__ import annotations
 
 import json
+import math
 from collections import Counter
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -23,6 +28,12 @@ from tqdm import tqdm
 
 from maopg.env import DecisionPoint, OptionEnv
 from maopg.env.rollout import ReferencePolicy, run_episode
+from maopg.experiment.run_dir import EVAL_COLUMNS
+
+BEHAVIOUR_VERSION = 1
+"""The version of what :func:`evaluate` computes from the episodes it plays (which episodes, how
+they are seeded and summarised): raise it when that changes, so cached evaluations
+(:mod:`maopg.experiment.studies.cache`) are made again."""
 
 EVAL_MAX_TICKS = 1000
 """Ticks an episode of the evaluation after training plays at most (the trainer passes it as
@@ -152,3 +163,40 @@ def write_result(result: EvalResult, path: str | Path) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(result.to_json())
     return path
+
+
+# ---------------------------------------------------------------------- during training
+NO_EVALUATION = dict.fromkeys(EVAL_COLUMNS, math.nan)
+"""The evaluation columns of a row without an evaluation."""
+
+EVAL_STREAM = 0xE7A1
+"""The spawn key that sets the evaluation's seeds apart from every stream of the training
+(:func:`maopg.env.vector.episode_seed` hashes ``[run seed, env, episode]`` without one)."""
+
+
+def evaluation_due(before: int, after: int, every: int) -> int | None:
+    """The index ``k`` of the evaluation due after an iteration that took the run from
+    ``before`` to ``after`` samples: it reached ``k * every``, the largest multiple it passed
+    (one evaluation, however many it passed); ``None`` when it reached none, or ``every`` is 0.
+    A function of the sample counts alone, so a resumed run evaluates where an uninterrupted
+    one does."""
+    if every < 1 or after // every == before // every:
+        return None
+    return after // every
+
+
+def evaluation_seeds(run_seed: int, index: int) -> tuple[int, int]:
+    """``(episode seed, acting seed)`` of evaluation ``index`` of run ``run_seed``: its episode
+    ``j`` is reset with ``episode seed + j`` and its sampled options come from a generator
+    seeded with the acting seed. Derived from numpy's ``SeedSequence`` with a spawn key of
+    their own, they draw from no stream of the training, whose curve therefore does not depend
+    on whether it evaluates; each evaluation plays other episodes than the last."""
+    words = np.random.SeedSequence(run_seed, spawn_key=(EVAL_STREAM, index)).generate_state(2)
+    return int(words[0]) % 2**31, int(words[1])  # 31 bits: ``seed + j`` stays a 32-bit seed
+
+
+def evaluation_row(result: EvalResult) -> dict[str, float]:
+    """The :data:`~maopg.experiment.run_dir.EVAL_COLUMNS` of an evaluation's ``result``."""
+    summary = result.summary
+    keys = ("return_mean", "return_std", "success_rate", "length_mean")
+    return {column: summary[key] for column, key in zip(EVAL_COLUMNS, keys, strict=True)}

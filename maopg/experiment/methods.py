@@ -41,9 +41,6 @@ class Method:
     strategy: Strategy | str
     learner: type[Learner]
     policy: PolicyBuilder
-    in_grid: bool = True
-    """Part of the reproduction grid by default (``python -m eval reproduce``): the paper's
-    methods are; a method added since is run by naming it (``--methods``)."""
     settings: tuple[tuple[str, Any], ...] = ()
     """Its own defaults for fields of its config section, as ``(name, value)`` pairs: a variant
     of a method that differs only in a setting (``async-rnn`` is ``async`` with
@@ -103,11 +100,6 @@ def method_names() -> list[str]:
     return list(_METHODS)
 
 
-def grid_method_names() -> list[str]:
-    """The methods the reproduction grid runs by default (:attr:`Method.in_grid`)."""
-    return [name for name, method in _METHODS.items() if method.in_grid]
-
-
 def section_classes() -> dict[str, type]:
     """Every registered learner's config section: name → dataclass."""
     return {m.section: m.config_class for m in _METHODS.values()}
@@ -123,14 +115,13 @@ register_method(Method("partial", "continue", MAPPOLearner, partial_policy))
 # The conditional factored by the chain rule over the choosing agents, for teams whose joint
 # option set is too large for the product categorical (maopg.policy.autoregressive), and the
 # paper's baselines built on it: the methods of the at-scale comparison (study "teams").
-SCALES = {"in_grid": False}
-register_method(Method("async-ar", "continue", MAPPOLearner, autoregressive_policy, **SCALES))
-register_method(Method("sync-cut-ar", "any", MAPPOLearner, autoregressive_policy, **SCALES))
-register_method(Method("partial-ar", "continue", MAPPOLearner, partial_factored_policy, **SCALES))
+register_method(Method("async-ar", "continue", MAPPOLearner, autoregressive_policy))
+register_method(Method("sync-cut-ar", "any", MAPPOLearner, autoregressive_policy))
+register_method(Method("partial-ar", "continue", MAPPOLearner, partial_factored_policy))
 # Recurrent policies and critics (a GRU over the option-level history, rMAPPO): for partially
 # observable tasks such as Water Filling. Any MAPPO method is recurrent with ppo.recurrent=true;
-# these three are the rows of the recurrent benchmark (README "Recurrent policies").
-RECURRENT = {"in_grid": False, "settings": (("recurrent", True),)}
+# these three are the rows of the study "memory".
+RECURRENT = {"settings": (("recurrent", True),)}
 register_method(Method("async-rnn", "continue", MAPPOLearner, centralized_policy, **RECURRENT))
 register_method(Method("sync-wait-rnn", "all", MAPPOLearner, centralized_policy, **RECURRENT))
 register_method(Method("partial-rnn", "continue", MAPPOLearner, partial_policy, **RECURRENT))

@@ -38,6 +38,11 @@ record of a run — config, metrics, marker — without its weights."""
 
 TIMING_COLUMNS = ("samples_per_s", "wall_time")
 """Columns that depend on the machine, not on the seed (excluded from determinism checks)."""
+EVAL_COLUMNS = ("eval_return", "eval_return_std", "eval_success", "eval_length")
+"""The columns of the evaluation during training (``eval_every``): the mean and standard
+deviation of its episodes' returns, their success rate and mean length (ticks). Only a run
+with ``eval_every`` > 0 writes them, ``nan`` in the rows without an evaluation
+(:mod:`maopg.experiment.evaluate`)."""
 
 
 def _format(value: Any) -> str:
@@ -46,16 +51,27 @@ def _format(value: Any) -> str:
     return str(value)
 
 
+def scalar_tag(column: str) -> str:
+    """A ``metrics.csv`` column's TensorBoard (and W&B) tag: ``train/<column>``, but
+    ``eval/<name>`` for the evaluation's ``eval_<name>`` (:data:`EVAL_COLUMNS`), beside the
+    final evaluation's ``eval/return_greedy``."""
+    if column in EVAL_COLUMNS:
+        return f"eval/{column.removeprefix('eval_')}"
+    return f"train/{column}"
+
+
 class RunLog:
     """Appends one row per iteration to ``metrics.csv`` and mirrors it to TensorBoard.
 
-    ``columns`` are the method's (:attr:`maopg.experiment.methods.Method.columns`): the first
-    two, iteration and samples, index the rows; the rest become TensorBoard scalars over samples.
-    ``resume_samples`` is the sample count of the checkpoint a resumed run continues from: rows
-    after it (a killed run's last ones) are dropped from both records. Without it the run starts
-    from its beginning, and no row or event of an earlier attempt survives. With ``mirror``
-    (``logger=wandb``) the scalars go to W&B too, which keeps its own rule for resumed runs
-    (:mod:`maopg.experiment.wandb_log`).
+    ``columns`` are the method's (:attr:`maopg.experiment.methods.Method.columns`), then the
+    evaluation's (:data:`EVAL_COLUMNS`) where the run has them: the first two, iteration and
+    samples, index the rows; the rest become TensorBoard scalars over samples
+    (:func:`scalar_tag`). ``resume_samples`` is the sample count of the checkpoint a resumed run
+    continues from: rows after it (a killed run's last ones) are dropped from both records, and
+    a column the earlier rows lack (the evaluation's, switched on at the resume) is ``nan`` in
+    them. Without it the run starts from its beginning, and no row or event of an earlier
+    attempt survives. With ``mirror`` (``logger=wandb``) the scalars go to W&B too, which keeps
+    its own rule for resumed runs (:mod:`maopg.experiment.wandb_log`).
     """
 
     def __init__(
@@ -79,7 +95,7 @@ class RunLog:
                 if None not in r.values() and int(r["samples"]) <= resume_samples
             ]
             with self.path.open("w", newline="") as handle:
-                writer = csv.DictWriter(handle, fieldnames=columns)
+                writer = csv.DictWriter(handle, fieldnames=columns, restval="nan")
                 writer.writeheader()
                 writer.writerows(kept)
         if resume_samples is None:
@@ -91,7 +107,7 @@ class RunLog:
     def write(self, row: dict[str, Any]) -> None:
         with self.path.open("a", newline="") as handle:
             handle.write(",".join(_format(row[c]) for c in self.columns) + "\n")
-        values = {f"train/{key}": float(row[key]) for key in self.columns[2:]}
+        values = {scalar_tag(key): float(row[key]) for key in self.columns[2:]}
         self.scalars("", {k: v for k, v in values.items() if not math.isnan(v)}, row["samples"])
 
     def scalars(self, prefix: str, values: dict[str, float], step: int) -> None:
@@ -149,8 +165,17 @@ def read_metrics(path: Path) -> list[dict[str, str]]:
         return list(csv.DictReader(handle))
 
 
+def read_columns(path: Path) -> tuple[str, ...]:
+    """The header of a ``metrics.csv`` (empty if the file is missing or empty)."""
+    if not path.exists():
+        return ()
+    with path.open(newline="") as handle:
+        return tuple(next(csv.reader(handle), ()))
+
+
 def plot_learning_curve(csv_path: Path, png_path: Path, title: str = "") -> Path:
-    """Mean episode return (per iteration and smoothed) and the paper's metric vs samples."""
+    """Mean episode return (per iteration and smoothed, and the evaluation's where the run
+    evaluated during training) and the paper's metric vs samples."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -161,6 +186,7 @@ def plot_learning_curve(csv_path: Path, png_path: Path, title: str = "") -> Path
     samples = np.array([float(r["samples"]) for r in rows])
     returns = np.array([float(r["episode_return"]) for r in rows])
     paper = np.array([float(r["option_step_reward"]) for r in rows])
+    evaluated = np.array([float(r.get(EVAL_COLUMNS[0], "nan")) for r in rows])
 
     fig, (top, bottom) = plt.subplots(2, 1, figsize=(7, 6), sharex=True)
     seen = ~np.isnan(returns)
@@ -173,6 +199,9 @@ def plot_learning_curve(csv_path: Path, png_path: Path, title: str = "") -> Path
             np.convolve(returns[seen], kernel, mode="valid"),
             label=f"moving mean ({window} iterations)",
         )
+    shown = ~np.isnan(evaluated)
+    if shown.any():  # the evaluation during training (eval_every)
+        top.plot(samples[shown], evaluated[shown], "o-", ms=3, label="evaluation")
     top.set_ylabel("mean episode return")
     top.legend(loc="lower right")
     top.grid(alpha=0.3)

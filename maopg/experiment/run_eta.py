@@ -1,6 +1,10 @@
 """The whole run's ETA, shown in the training bar: the training that is left plus the steps
 after it (:func:`maopg.experiment.trainer.after_training`), from what this run has measured.
 
+The training left includes the evaluations during training still due (``eval_every``), at the
+mean time of this session's evaluations, or estimated as their episodes until one has run;
+the training rate is measured without them.
+
 The bar's own ETA covers the samples only, yet a run is not over when they are: the final
 evaluation, the video and its GIF, the plot take their time (about 30 s on Tool Delivery's
 defaults, minutes on Water Filling). Their cost is estimated from the run's own measurements —
@@ -48,6 +52,9 @@ class RunRates:
     """Environment ticks collected in that time, over all environments."""
     episode_length: float | None
     """Mean length (ticks) of the episodes that ended in training; ``None`` while none did."""
+    evaluation_s: float | None = None
+    """Mean seconds of this session's evaluations during training (``eval_every``), which
+    ``samples_per_s`` leaves out; ``None`` while none has run."""
 
 
 def envs_at_once(config: TrainConfig) -> int:
@@ -86,13 +93,35 @@ def after_training_seconds(config: TrainConfig, rates: RunRates, max_ticks: int)
     return seconds
 
 
+def evaluations_seconds(
+    config: TrainConfig, samples: int, rates: RunRates, max_ticks: int
+) -> float:
+    """The estimated time of the evaluations during training still due after ``samples``: each
+    at the measured mean, or, before one has run, ``eval_during_episodes`` episodes of the
+    training's mean length (``max_ticks`` while none has ended; bounded at
+    :data:`EVAL_MAX_TICKS`)."""
+    every = config.eval_every
+    if not every:
+        return 0.0
+    due = config.total_samples // every - samples // every  # type: ignore[operator]
+    if due <= 0:
+        return 0.0
+    each = rates.evaluation_s
+    if each is None:
+        length = min(rates.episode_length or max_ticks, max_ticks, EVAL_MAX_TICKS)
+        each = config.eval_during_episodes * length * tick_seconds(config, rates)
+    return due * each
+
+
 def estimate_run(
     config: TrainConfig, samples: int, rates: RunRates, max_ticks: int
 ) -> tuple[float, float]:
     """The estimated seconds until the whole run is done, in two parts: the training left (the
-    samples left at the measured rate) and :func:`after_training_seconds`."""
+    samples left at the measured rate, and :func:`evaluations_seconds`) and
+    :func:`after_training_seconds`."""
     left = max(config.total_samples - samples, 0)  # type: ignore[operator]
-    return left / rates.samples_per_s, after_training_seconds(config, rates, max_ticks)
+    training = left / rates.samples_per_s + evaluations_seconds(config, samples, rates, max_ticks)
+    return training, after_training_seconds(config, rates, max_ticks)
 
 
 def about(seconds: float) -> str:

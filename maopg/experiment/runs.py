@@ -148,7 +148,7 @@ def flatten_config(config: dict[str, Any]) -> dict[str, Any]:
 NOT_LEARNT = frozenset(
     {"task", "method", "seed", "run_dir", "plugins", "progress", "video", "plot", "logger"}
     | {"video_sample", "checkpoint_every", "backend", "num_workers", "device", "torch_threads"}
-    | {"eval_episodes"}
+    | {"eval_episodes", "eval_every", "eval_during_episodes", "eval_during_sample"}
 )
 """Settings that identify a run or say where and how it ran and logged, not what it learnt
 (every backend and worker count gives the same curve); the run sections' too."""

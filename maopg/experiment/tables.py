@@ -5,7 +5,7 @@ smoothed option-step reward: the paper's metric, a different quantity — never 
 Final = the mean return over the last 10% of a seed's samples: a method that peaks and then
 falls back (Mac-DQN exploring at its final ε, say) differs from one that stays there.
 Samples to threshold = low-level samples until a seed's smoothed return first reached the
-task's threshold (declared by the task at registration, or given); seeds that never did are
+task's threshold (declared by its study, or given); seeds that never did are
 counted in the "reached" column, not averaged.
 
 Rows of different methods are only comparable where they learnt from the same settings, so a
@@ -30,16 +30,6 @@ from maopg.experiment.runs import (
     peak,
 )
 from maopg.experiment.runs import samples_to_threshold as _samples_to_threshold
-from maopg.tasks import task_entry
-
-
-def task_threshold(task: str) -> float | None:
-    """The return threshold the task declared at registration (``None``: none declared, or a
-    task whose plugin is not imported here)."""
-    try:
-        return task_entry(task).threshold
-    except ValueError:
-        return None
 
 
 def format_summary(summary: Summary, digits: int = 1) -> str:
@@ -128,18 +118,13 @@ def peak_table(
 
 def threshold_table(
     runs: Iterable[RunData],
-    thresholds: Mapping[str, float] | None = None,
+    thresholds: Mapping[str, float],
     *,
     window: int = 1,
     methods: Sequence[str] | None = None,
 ) -> str:
-    """Per task × method: low-level samples until the smoothed return reached the threshold."""
-    runs = list(runs)
-    declared = {t: task_threshold(t) for t in {r.task for r in runs}}
-    thresholds = {
-        **{t: v for t, v in declared.items() if v is not None},
-        **(thresholds or {}),
-    }
+    """Per task × method: low-level samples until the smoothed return reached the task's
+    threshold (a task without one gets a row that says so)."""
     rows = []
     for (task, method), group in _selected(runs, methods):
         n = len(group)

@@ -5,16 +5,19 @@ killed run resumes from its last checkpoint.
 
 Everything random flows from ``config.seed``: network initialisation (torch's global RNG),
 acting (``sample_gen``), minibatches / replay sampling (``update_gen``) and the environments'
-episode seeds (:func:`maopg.env.vector.episode_seed`). The checkpoint stores the generators'
-states and each environment's (episode, options since reset), so a resumed run continues bit
-for bit, whatever the backend. All of it is CPU state whatever ``config.device``: networks are
-initialised on the CPU and moved, and the generators are CPU generators that draw on the CPU
-(:class:`maopg.learner.LearnerSetup`), so ``device=cpu`` computes exactly what the code did
-before it had a device, and a ``cuda`` run differs from it only by the GPU's rounding.
+episode seeds (:func:`maopg.env.vector.episode_seed`); the evaluation during training
+(``eval_every``, :class:`TrainingEvaluation`) has seeds of its own and reads none of these.
+The checkpoint stores the generators' states and each environment's (episode, options since
+reset), so a resumed run continues bit for bit, whatever the backend. All of it is CPU state
+whatever ``config.device``: networks are initialised on the CPU and moved, and the generators
+are CPU generators that draw on the CPU (:class:`maopg.learner.LearnerSetup`), so
+``device=cpu`` computes exactly what the code did before it had a device, and a ``cuda`` run
+differs from it only by the GPU's rounding.
 """
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import random
 import shutil
@@ -26,6 +29,7 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
+from maopg.env import OptionEnv
 from maopg.env.contract import EnvSpec
 from maopg.env.vector import SeededVectorEnv
 from maopg.env.video import record_episode
@@ -38,13 +42,16 @@ from maopg.experiment.run_dir import (
     CONFIG,
     CURVE,
     DONE,
+    EVAL_COLUMNS,
     FINAL,
     METRICS,
     TENSORBOARD,
     VIDEO,
     RunLog,
     plot_learning_curve,
+    read_columns,
     read_done,
+    scalar_tag,
     write_done,
 )
 from maopg.experiment.run_eta import RunRates, about, estimate_run
@@ -73,6 +80,9 @@ RESUMABLE_KEYS = (
     "video",
     "video_sample",
     "eval_episodes",
+    "eval_every",
+    "eval_during_episodes",
+    "eval_during_sample",
     "plot",
     "backend",
     "num_workers",
@@ -85,7 +95,10 @@ RESUMABLE_KEYS = (
 """Config fields a resumed run may change: none of them changes what is computed. ``device``
 changes only how it is rounded: a run moved from ``cpu`` to ``cuda`` (or back) continues the
 same updates on the same state (checkpoints hold CPU tensors, :mod:`maopg.learner.checkpoint`),
-but its curve from there on is not bit-identical to an unmoved run's."""
+but its curve from there on is not bit-identical to an unmoved run's. The evaluation during
+training (``eval_every``) changes no training column either: a resumed run may switch it on
+(its earlier rows read ``nan`` in the new columns), off (the columns stay, ``nan`` from there
+on) or change its cadence; its rows up to the checkpoint are kept, not evaluated again."""
 
 
 def _seed_everything(seed: int) -> tuple[torch.Generator, torch.Generator]:
@@ -317,6 +330,93 @@ def _stopped(
     )
 
 
+class TrainingEvaluation:
+    """The evaluation during training (``eval_every``): the evaluation columns of each
+    iteration's row, the outcome of an evaluation where one is due
+    (:func:`~maopg.experiment.evaluate.evaluation_due`) and ``nan`` elsewhere.
+
+    An evaluation plays :func:`~maopg.experiment.evaluate.evaluate` in an environment of its
+    own (built at the first one, in this process whatever the backend) with a CPU copy of the
+    learner's acting network, acting as every trained policy acts (:meth:`Learner.actor`:
+    sampled, Mac-DQN ε-greedy at its final ε; greedy with ``eval_during_sample=false``), from
+    the evaluation's own seeds (:func:`~maopg.experiment.evaluate.evaluation_seeds`). It touches
+    nothing the training reads — the learner's network, the training's environments and their
+    episode counters, its generators — and the global RNGs are restored after it, should a
+    task's code draw from them: the training columns are the same bit for bit with evaluation
+    on or off. An evaluation depends only on the weights and its index, so a resumed run
+    evaluates as an uninterrupted one.
+    """
+
+    def __init__(self, config: TrainConfig) -> None:
+        self.config = config
+        self.seconds = 0.0
+        """Spent evaluating in this session: in no row's ``wall_time`` or ``samples_per_s``."""
+        self.count = 0
+        """Evaluations in this session."""
+        self._env: OptionEnv | None = None
+        self._cut_said = False
+
+    @property
+    def mean_seconds(self) -> float | None:
+        """The mean time of this session's evaluations, ``None`` while none has run."""
+        return self.seconds / self.count if self.count else None
+
+    def row(self, learner: Learner, before: int, after: int) -> dict[str, float]:
+        """The evaluation columns of the iteration that took the run from ``before`` to
+        ``after`` samples, evaluating ``learner``'s policy if one is due."""
+        config = self.config
+        index = evaluation.evaluation_due(before, after, config.eval_every)
+        if index is None:
+            return dict(evaluation.NO_EVALUATION)
+        start = time.perf_counter()
+        episode_seed, acting_seed = evaluation.evaluation_seeds(config.seed, index)
+        actor = get_method(config.method).learner.actor(
+            copy.deepcopy(learner.policy).cpu(),
+            config.learner,
+            greedy=not config.eval_during_sample,
+            seed=acting_seed,
+        )
+        global_rng = capture_global_rng()
+        try:
+            if self._env is None:
+                self._env = config.env().make(0)
+            result = evaluation.evaluate(
+                self._env,
+                actor,
+                config.eval_during_episodes,
+                seed=episode_seed,
+                label=f"at {after} samples",
+                progress=config.progress,
+                max_ticks=evaluation.EVAL_MAX_TICKS,
+            )
+        finally:
+            restore_global_rng(global_rng)
+        if any(result.cut) and not self._cut_said:
+            self._cut_said = True
+            _note(
+                f"evaluation at {after} samples: {sum(result.cut)} of its "
+                f"{config.eval_during_episodes} episodes went on past tick "
+                f"{evaluation.EVAL_MAX_TICKS} and were cut there (said once; so may later ones)"
+            )
+        self.seconds += time.perf_counter() - start
+        self.count += 1
+        return evaluation.evaluation_row(result)
+
+    def close(self) -> None:
+        if self._env is not None:
+            self._env.close()
+
+
+def _columns(config: TrainConfig, resume: bool) -> tuple[str, ...]:
+    """The run's ``metrics.csv`` columns: its method's, and the evaluation's where it evaluates
+    during training or its file already has them (a resumed run keeps its columns)."""
+    columns = get_method(config.method).columns
+    path = Path(config.run_dir) / METRICS  # type: ignore[arg-type]
+    if config.eval_every or (resume and EVAL_COLUMNS[0] in read_columns(path)):
+        columns += EVAL_COLUMNS
+    return columns
+
+
 def train(config: TrainConfig, *, resume: bool = False, overwrite: bool = False) -> Path:
     """Train ``config`` (resolved here) and return the run directory.
 
@@ -350,7 +450,6 @@ def _train(config: TrainConfig, lock: RunDirLock, *, resume: bool, overwrite: bo
     _note_slow_bf16(config)
     _note_raw_memory(config)
     sample_gen, update_gen = _seed_everything(config.seed)
-    method = get_method(config.method)
 
     # Workers are spawned before this process builds anything that renders (docs/DESIGN.md §2).
     envs = SeededVectorEnv(
@@ -362,6 +461,7 @@ def _train(config: TrainConfig, lock: RunDirLock, *, resume: bool, overwrite: bo
         backend_options=config.backend_options(),
     )
     mirror: WandbMirror | None = None
+    evaluations = TrainingEvaluation(config)
     try:
         learner = build_learner(config, envs.spec, sample_gen, update_gen)
         new_run = saved is None  # --resume wins over --overwrite
@@ -393,7 +493,10 @@ def _train(config: TrainConfig, lock: RunDirLock, *, resume: bool, overwrite: bo
         else:
             envs.reset()
         log = RunLog(
-            run_dir, method.columns, resume_samples=samples if resume else None, mirror=mirror
+            run_dir,
+            _columns(config, resume),
+            resume_samples=samples if resume else None,
+            mirror=mirror,
         )
         checkpointed = iteration if resume else None
 
@@ -428,7 +531,8 @@ def _train(config: TrainConfig, lock: RunDirLock, *, resume: bool, overwrite: bo
         after: float | None = None  # the after-training steps' estimated time, once measured
         ret = ""  # the postfix's last episode return
         if not resume:
-            log.hparams(config.flat(), EVAL_TAGS)
+            evaluated = (scalar_tag(EVAL_COLUMNS[0]),) if config.eval_every else ()
+            log.hparams(config.flat(), (*EVAL_TAGS, *evaluated))
         try:
             while samples < config.total_samples:  # type: ignore[operator]
                 start = time.perf_counter()
@@ -447,17 +551,19 @@ def _train(config: TrainConfig, lock: RunDirLock, *, resume: bool, overwrite: bo
                     samples_per_s=ticks / elapsed,
                     wall_time=wall_time,
                 )
+                row.update(evaluations.row(learner, samples - ticks, samples))
                 log.write(row)
                 log.scalars("options", watch.take_frequencies(), samples)
                 bar.n = min(samples, config.total_samples)  # type: ignore[type-var]
                 if row["episodes"]:
                     ret = f"ret={row['episode_return']:.1f}, "
+                training_s = time.perf_counter() - session_start - evaluations.seconds
                 rates = RunRates(
-                    samples_per_s=(samples - session_samples)
-                    / (time.perf_counter() - session_start),
+                    samples_per_s=(samples - session_samples) / training_s,
                     collecting_s=watch.collecting_s,
                     ticks=watch.ticks,
                     episode_length=watch.episode_length,
+                    evaluation_s=evaluations.mean_seconds,
                 )
                 training, after = estimate_run(config, samples, rates, envs.spec.max_ticks)
                 bar.set_postfix_str(f"{ret}run done in {about(training + after)}", refresh=False)
@@ -482,6 +588,7 @@ def _train(config: TrainConfig, lock: RunDirLock, *, resume: bool, overwrite: bo
             mirror.close(failed=True)
         raise
     finally:
+        evaluations.close()
         envs.close()
     failed = True  # the W&B run ends failed unless the after-training steps finish
     try:

@@ -13,8 +13,9 @@ already holds. Offline (``wandb.mode=offline``, or ``WANDB_MODE=offline``) each 
 directory of its own under ``RUN_DIR/wandb/``, and ``wandb sync`` uploads them in order into the
 one run.
 
-Steps are sample counts, as in TensorBoard. A row's ``train/*`` columns and the ``options/*``
-shares of the same iteration go out as one W&B step.
+Steps are sample counts, as in TensorBoard. A row's ``train/*`` columns, its evaluation's
+``eval/*`` (``eval_every``) and the ``options/*`` shares of the same iteration go out as one
+W&B step.
 """
 
 from __future__ import annotations

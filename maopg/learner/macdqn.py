@@ -112,7 +112,7 @@ class MacDQNConfig(Settings):
     """Factor on every reward the Q-network learns from, so Q-values (and ``q_mean`` in the log)
     are in scaled units; the greedy option is unchanged by a positive factor. ``huber_delta``
     and ``max_grad_norm`` were chosen for Tool Delivery's ±100 rewards: Water Filling's are
-    ~-10³ per tick, where ``1e-3`` brings them to the same scale (results/README.md, finding 5).
+    ~-10³ per tick, where ``1e-3`` brings them to the same scale.
     MAPPO needs no such factor: its value normalisation rescales the returns."""
     recurrent: bool = False
     """GRU over the option-level history (the original used an LSTM over squeezed episodes).

@@ -84,8 +84,7 @@ class PPOConfig(Settings):
     """Ticks over which the entropy bonus's weight falls linearly from ``ent_coef`` to
     ``ent_coef_end`` (as Mac-DQN's ε falls over ``dqn.eps_decay``, except at 0, which here
     means no decay: ``ent_coef`` throughout). Annealing is a common way to let a policy end
-    sure of its choices; on Water Filling it left recurrent ``async`` as soft as before
-    (results/memory/README.md, finding 5)."""
+    sure of its choices; on Water Filling it left recurrent ``async`` as soft as before."""
     value_coef: float = setting(1.0, ge=0.0)
     lr: float = setting(5e-4, gt=0.0)
     critic_lr: float = setting(5e-4, gt=0.0)

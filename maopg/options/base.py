@@ -16,10 +16,22 @@ does to the task's rules goes through a method of that protocol (a hook such as
 
 from __future__ import annotations
 
+import enum
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any, Generic, Protocol, TypeVar
+
+
+class Strategy(enum.StrEnum):
+    """How option terminations of different agents are reconciled (docs/DESIGN.md §3; the
+    option-level contract, :mod:`maopg.env.contract`, says what each does). Defined with the
+    options, below the tasks, so that a task can declare the strategies it runs under."""
+
+    CONTINUE = "continue"
+    ANY = "any"
+    ALL = "all"
+    PRIMITIVE = "primitive"
 
 
 class AgentControl(Protocol):

@@ -56,8 +56,7 @@ class AutoregressivePolicy(EncodedPolicy):
     one shared head must pull each agent's view out of a single summary of the whole team,
     and on Tool Delivery the policy could then settle where no Fetch ever passes: on one seed of
     five at the paper's size (return −150) and on one of three in a team of eight (150, no tool
-    delivered), where ``partial-ar``, reading local features only, never did
-    (results/chain-rule/README.md).
+    delivered), where ``partial-ar``, reading local features only, never did.
 
     A recurrent ``memory``: a GRU per encoder — the joint state advances at every decision
     point, agent ``i``'s own state only where agent ``i`` chooses (as in

@@ -32,7 +32,7 @@ returns. The encoders end in a ReLU with no normalisation: their features are la
 300–400 over 128 units in trained Water Filling policies, ``bench/memory_scale.py``), which
 drive a GRU's sigmoid and tanh gates into saturation, where a step barely moves them; the
 outputs, bounded by the tanh, are small beside the features a feed-forward head reads, so the
-head's logits move little per update (results/memory/README.md).
+head's logits move little per update.
 
 **Step and sequence.** :meth:`OptionMemory.step` advances one decision point per row (acting,
 collection); :meth:`OptionMemory.sequence` re-runs chunks of consecutive decision points from

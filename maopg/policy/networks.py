@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
+from typing import ClassVar
 
 import torch
 from torch import Tensor, nn
@@ -53,6 +54,11 @@ class OptionPolicy(nn.Module, ABC):
     """
 
     option_counts: tuple[int, ...]
+    behaviour_version: ClassVar[int] = 1
+    """The version of how the policy turns weights and observations into options: raise it
+    with any change to that, so evaluations cached for the old behaviour are made again
+    (:mod:`maopg.experiment.studies.cache`; ``tests/test_behaviour_versions.py`` fails for a
+    method whose actions changed while its policy's version did not)."""
 
     @property
     def recurrent(self) -> bool:
@@ -286,6 +292,9 @@ class JointQNetwork(nn.Module):
     runs over one episode's decision points in order; :meth:`step` advances it by one point
     while acting, :meth:`sequence` runs whole padded episodes for training.
     """
+
+    behaviour_version: ClassVar[int] = 1
+    """As :attr:`OptionPolicy.behaviour_version`."""
 
     def __init__(
         self,

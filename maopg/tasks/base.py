@@ -4,8 +4,9 @@ A task owns a compiled MuJoCo scene, its robots' adapters, its option sets and i
 (reward, termination, observations). It knows nothing about termination *strategies* or
 learners: the option environment decides who chooses when, and calls these hooks. A user's own
 task subclasses :class:`Task`, fills in the abstract methods, registers itself with
-:func:`maopg.tasks.register_task`, and gets every strategy, the PettingZoo adapter, every learner
-and the registry-wide contract test (``tests/tasks/test_contract.py``) for free.
+:func:`maopg.tasks.register_task`, and gets the strategies (those that idle or interrupt agents
+with a :meth:`Task.hold` of its own: :attr:`Task.strategies`), the PettingZoo adapter, every
+learner and the registry-wide contract test (``tests/tasks/test_contract.py``) for free.
 
 Its options are written against protocols of the options layer (:mod:`maopg.options.base`),
 which the task implements; observation vectors follow the task's named
@@ -37,7 +38,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from maopg.options.base import Option
+from maopg.options.base import Option, Strategy
 from maopg.settings import Settings, setting
 from maopg.sim.render import CameraRenderer
 from maopg.sim.robots.base import RobotAdapter
@@ -93,6 +94,32 @@ class Task(ABC):
     name: str
     tick_seconds: float
     config: TaskConfig
+    behaviour_version: ClassVar[int] = 1
+    """The version of what the task does, tick by tick: raise it with any change to its
+    trajectories, observations, rewards or images (its options, robots, scene or scripted
+    policy), so that evaluations cached for the old behaviour are made again
+    (:mod:`maopg.experiment.studies.cache`; ``tests/test_behaviour_versions.py`` fails for a
+    built-in task whose reference trajectory changed while its version did not)."""
+
+    strategies: ClassVar[frozenset[Strategy] | None] = None
+    """The termination strategies the task runs under (docs/DESIGN.md §3), checked before a
+    run or an evaluation builds it (:func:`require_strategy`). ``None`` (the default): derived
+    from the class (:meth:`supported_strategies`): every strategy where it has a :meth:`hold`
+    of its own, else ``continue`` and ``primitive`` only — ``all`` idles the agents that
+    finished with it, and ``any`` stops the interrupted options with it (the default
+    :meth:`maopg.options.base.Option.interrupt`). A task declares them where that does not fit:
+    one whose options all interrupt without ``hold()`` adds ``any``; one whose :meth:`options`
+    ignore ``config.primitive`` (the one-tick primitive actions of ``primitive``) leaves that
+    out."""
+
+    @classmethod
+    def supported_strategies(cls) -> frozenset[Strategy]:
+        """:attr:`strategies`, or those derived from the class where it declares none."""
+        if cls.strategies is not None:
+            return frozenset(Strategy(s) for s in cls.strategies)
+        if cls.hold is not Task.hold:
+            return frozenset(Strategy)
+        return frozenset({Strategy.CONTINUE, Strategy.PRIMITIVE})
 
     # ----------------------------------------------------------------- static description
     @property
@@ -121,9 +148,15 @@ class Task(ABC):
     def reset(self, seed: int) -> None:
         """Start a new episode: physics, task state and every random stream from ``seed``."""
 
-    @abstractmethod
     def hold(self, agent: int) -> None:
-        """Command the agent's robot to stay put this tick (idle / interrupted agents)."""
+        """Command the agent's robot to stay put this tick: how an agent that finished idles
+        under ``all`` (sync-wait), and how an option that ``any`` (sync-cut) interrupts stops
+        by default. A task without it runs under ``continue`` and ``primitive``
+        (:attr:`strategies`)."""
+        raise NotImplementedError(
+            f"task {getattr(self, 'name', type(self).__name__)!r} has no hold(): it cannot "
+            "idle or interrupt an agent (strategies 'all' and 'any')"
+        )
 
     @abstractmethod
     def tick(self) -> float:
@@ -174,6 +207,21 @@ class Task(ABC):
 
     def close(self) -> None:  # noqa: B027 (optional hook)
         """Release renderers and other resources."""
+
+
+def require_strategy(
+    cls: type[Task], task: str, strategy: str, *, method: str | None = None
+) -> None:
+    """Refuse, in one line, a ``strategy`` the task class ``cls`` registered as ``task`` does
+    not run under (:meth:`Task.supported_strategies`), naming the ``method`` that asked for it
+    when one did: before a run or an evaluation builds anything, rather than a traceback at
+    its first idle tick."""
+    supported = cls.supported_strategies()
+    if strategy in supported:
+        return
+    asked = f"method {method!r} (strategy {strategy!r})" if method else f"strategy {strategy!r}"
+    names = ", ".join(s.value for s in Strategy if s in supported) or "none"
+    raise ValueError(f"task {task!r} does not support {asked}; it supports: {names}")
 
 
 class SceneTask(Task):

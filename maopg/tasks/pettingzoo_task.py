@@ -34,7 +34,7 @@ from maopg.options.base import Execution, Option
 from maopg.settings import setting
 from maopg.tasks.base import Task, TaskConfig
 from maopg.tasks.layout import ObsLayout
-from maopg.tasks.registry import TaskEntry, register_task
+from maopg.tasks.registry import RETIRED_KEYWORDS, TaskEntry, register_task
 
 
 @dataclass(frozen=True)
@@ -197,9 +197,9 @@ def register_pettingzoo(
 ) -> TaskEntry:
     """Register the PettingZoo environment ``env`` (``"module:factory"``) as task ``name``;
     ``settings`` are :class:`PettingZooConfig` defaults of this task (``env_kwargs``,
-    ``max_ticks``, ``reward``, ...), and ``train_defaults``/``grid_seeds``/``threshold`` go to
-    :func:`~maopg.tasks.registry.register_task`."""
-    entry_keys = ("train_defaults", "grid_seeds", "threshold", "grid_overrides")
+    ``max_ticks``, ``reward``, ...), and ``train_defaults`` (and the retired grid keywords, to
+    be refused there) go to :func:`~maopg.tasks.registry.register_task`."""
+    entry_keys = ("train_defaults", *RETIRED_KEYWORDS)
     entry = {k: settings.pop(k) for k in entry_keys if k in settings}
     known = {f.name for f in dataclasses.fields(PettingZooConfig)}
     unknown = sorted(set(settings) - known)

@@ -2,10 +2,11 @@
 
 A :class:`TaskEntry` names the task class and its config dataclass and carries what the rest of
 the project would otherwise look up by task name: the scripted reference policy, the video
-panel's state lines, training defaults, the reproduction grid's seeds, threshold and per-method
-overrides. Classes and functions may be given as ``"package.module:Attr"`` strings (dotted
-attributes allowed: ``"pkg.task:MyTask.Config"``), imported on first use, so registering a task
-imports none of its simulation code.
+panel's state lines and its training defaults. What a study makes of a task (its seeds, a
+return threshold, settings of one method's runs) belongs to the study
+(:mod:`maopg.experiment.studies`), not here. Classes and functions may be given as
+``"package.module:Attr"`` strings (dotted attributes allowed: ``"pkg.task:MyTask.Config"``),
+imported on first use, so registering a task imports none of its simulation code.
 
 ``make_config`` validates overrides against the config's fields, so a typo fails loudly with the
 list of valid keys instead of being silently ignored; the config checks each value's kind and
@@ -59,12 +60,6 @@ class TaskEntry:
     """``describe()`` dict -> the video panel's lines (default: ``generic_state_lines``)."""
     train_defaults: Mapping[str, Any] = field(default_factory=dict)
     """Training-config fields this task defaults (``batch_ticks``, ``total_samples``, ...)."""
-    grid_seeds: tuple[int, ...] = (0,)
-    """Seeds of the reproduction grid."""
-    threshold: float | None = None
-    """Return threshold of the samples-to-threshold tables (``None``: no such column)."""
-    grid_overrides: Mapping[str, tuple[str, ...]] = field(default_factory=dict)
-    """Method name -> extra training ``key=value`` overrides of that method's grid cells."""
     defaults: Mapping[str, Any] = field(default_factory=dict)
     """Config settings this registration changes from the config class's own defaults (one
     class registered as several tasks: each wrapped PettingZoo environment, say)."""
@@ -90,6 +85,9 @@ class TaskEntry:
 
 _TASKS: dict[str, TaskEntry] = {}
 
+RETIRED_KEYWORDS = ("grid_seeds", "threshold", "grid_overrides")
+"""Keywords of :func:`register_task` in earlier releases, now a study's (refused, one line)."""
+
 
 def register_task(
     name: str,
@@ -99,17 +97,27 @@ def register_task(
     scripted: ScriptedFactory | str | None = None,
     state_lines: StateLines | str | None = None,
     train_defaults: Mapping[str, Any] | None = None,
-    grid_seeds: tuple[int, ...] = (0,),
-    threshold: float | None = None,
-    grid_overrides: Mapping[str, tuple[str, ...]] | None = None,
     defaults: Mapping[str, Any] | None = None,
     overwrite: bool = False,
+    **retired: Any,
 ) -> TaskEntry:
     """Register task ``name`` (a user's task plugs in here) and return its entry.
 
     ``config`` defaults to the task class's ``Config`` attribute (for a lazy ``"module:Class"``
-    task: ``"module:Class.Config"``, looked up on first use).
+    task: ``"module:Class.Config"``, looked up on first use). The grid keywords of earlier
+    releases (``grid_seeds``, ``threshold``, ``grid_overrides``) are refused with a line that
+    says where they went: a study declares them.
     """
+    unexpected = sorted(set(retired) - set(RETIRED_KEYWORDS))
+    if unexpected:
+        raise TypeError(f"register_task() got unexpected keyword arguments {unexpected}")
+    if retired:
+        keys = ", ".join(f"{key}=" for key in sorted(retired))
+        raise ValueError(
+            f"register_task({keys}...): a grid's seeds, return threshold and per-method settings "
+            "belong to a study now (maopg.experiment.studies: StudyTask(task, seeds, "
+            "threshold=..., method_overrides=...), register_study)"
+        )
     if name in _TASKS and not overwrite:
         raise ValueError(f"task {name!r} is already registered (pass overwrite=True)")
     if config is None and isinstance(task, str):
@@ -127,9 +135,6 @@ def register_task(
         scripted=scripted,
         state_lines=state_lines,
         train_defaults=MappingProxyType(dict(train_defaults or {})),
-        grid_seeds=tuple(grid_seeds),
-        threshold=threshold,
-        grid_overrides=MappingProxyType(dict(grid_overrides or {})),
         defaults=MappingProxyType(dict(defaults or {})),
     )
     _TASKS[name] = entry

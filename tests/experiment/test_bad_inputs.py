@@ -19,8 +19,8 @@ import pytest
 from maopg.env import make_env
 from maopg.env.pettingzoo import OptionParallelEnv
 from maopg.experiment.eval_cli import main as eval_main
-from maopg.experiment.reproduce import Cell, _train_args
 from maopg.experiment.studies import get_study
+from maopg.experiment.studies.grid import Cell, cell_config
 from maopg.experiment.train_cli import main as train_main
 from maopg.experiment.train_cli import parse_args
 
@@ -121,7 +121,10 @@ BAD_EVAL = [
     (["video", "--reference", "random", "--fps", "0", "--out", "x.mp4"], r"--fps: must be >= 1"),
     (["reproduce", "--dry-run", "--set", "ppo.epochs=2"], r"--set is retired: .* ppo\.epochs=2"),
     (["reproduce", "--dry-run", "ppo.epochz=2"], r"unknown config key 'ppo\.epochz'"),
-    (["reproduce", "--dry-run", "seed=3"], r"tool_delivery/async: --seed \d+ contradicts seed=3"),
+    (
+        ["reproduce", "--dry-run", "seed=3"],
+        r"tool_delivery/async: seed=3 contradicts the grid's cell \(seed \d+\)",
+    ),
     (["reproduce", "--dry-run", "--config", "missing.yaml"], r"config file .*missing\.yaml"),
 ]
 
@@ -296,9 +299,10 @@ def test_the_grid_gives_its_settings_to_every_cell_as_train_does(tmp_path, capsy
     assert eval_main([*grid, "ppo.epochs=0"]) == 2
     _one_line(capsys.readouterr().err, r"ppo\.epochs must be >= 1, got 0")
     paper = get_study("paper")
-    args = _train_args(Cell("tool_delivery", "async", 0), runs, paper, ["ppo.epochs=2"], grid_file)
-    assert args[:2] == ["--config", str(grid_file)] and args[-1] == "ppo.epochs=2"
-    cell = parse_args(args)[0].resolved()
+    cell, _ = cell_config(
+        Cell("tool_delivery", "async", 0), runs, paper, ["ppo.epochs=2"], grid_file
+    )
+    cell = cell.resolved()
     assert (cell.seed, cell.hidden, cell.learner.epochs) == (0, 16, 2) and not runs.exists()
 
 

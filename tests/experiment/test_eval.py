@@ -15,22 +15,11 @@ import pytest
 from maopg.env import make_env, video
 from maopg.env.rollout import reference_policy, run_episode
 from maopg.env.video import video_title
-from maopg.experiment import studies
-from maopg.experiment.config import RUN_SECTIONS
+from maopg.experiment.config import RUN_SECTIONS, TrainConfig
 from maopg.experiment.eval_cli import main
 from maopg.experiment.evaluate import evaluate
 from maopg.experiment.loading import load_trained
 from maopg.experiment.plots import curve_table, plot_all, plot_task
-from maopg.experiment.reproduce import (
-    Cell,
-    _train_args,
-    cell_state,
-    code_digest,
-    reference_lines,
-    reproduce,
-    run_grid,
-    write_results,
-)
 from maopg.experiment.run_dir import DONE, FINAL
 from maopg.experiment.runs import (
     NOT_LEARNT_SECTIONS,
@@ -43,11 +32,22 @@ from maopg.experiment.runs import (
     samples_to_threshold,
     trailing_mean,
 )
-from maopg.experiment.studies import Study, StudyTask, get_study, register_study, study_names
+from maopg.experiment.studies import (
+    Study,
+    StudyTask,
+    frozen,
+    get_study,
+    register_study,
+    registry,
+    study_names,
+)
+from maopg.experiment.studies.cache import behaviour
+from maopg.experiment.studies.grid import Cell, cell_config, cell_state, run_grid
+from maopg.experiment.studies.results import reference_lines, reproduce, write_results
 from maopg.experiment.tables import peak_table, threshold_table
 from maopg.experiment.train_cli import main as train_main
+from maopg.experiment.trainer import RESUMABLE_KEYS
 from maopg.policy import DistributionActor, QActor
-from maopg.tasks import task_entry
 
 RUN = [
     "batch_ticks=60",
@@ -180,7 +180,7 @@ def test_a_paper_tables_analog_is_written_where_its_methods_were_run(tmp_path):
     for method in ("async", "mac-dqn"):
         _fake_run(root, "tool_delivery", method, 0, [100, 200], [1.0, 2.0])
     _fake_run(root, "water_filling", "async", 0, [100, 200], [1.0, 2.0])  # no Mac-DQN there
-    write_results(discover_runs([root]), tmp_path / "results")
+    write_results(discover_runs([root]), tmp_path / "results", thresholds={})
     tables = (tmp_path / "results" / "tables.md").read_text()
     assert "Table I analog" in tables and "Table II analog" not in tables
     table_one = tables.split("## Table I analog")[1]
@@ -514,10 +514,15 @@ def test_grid_skips_finished_runs_and_resumes_unfinished_ones(tmp_path):
         assert f"| random | tool_delivery | {strategy} | 1 |" in evaluation
     assert "| async seed0 greedy | tool_delivery | continue | 1 |" in evaluation
     assert "| async seed0 sampled | tool_delivery | continue | 1 |" in evaluation
-    # evaluations are cached per run, keyed on the code and the weights they were made with
+    # evaluations are cached per run, keyed on the behaviours and the weights they rest on
     cache = seed0 / "evaluation.json"
     cached = json.loads(cache.read_text())
-    assert cached["key"]["code"] == code_digest()
+    policy = type(load_trained(seed0 / FINAL).policy)
+    assert {**cached["key"], "weights": None} == {
+        "episodes": 1,
+        **behaviour(["tool_delivery"], policy),
+        "weights": None,
+    }
     cached["results"][0]["label"] = "from the cache"
     cache.write_text(json.dumps(cached))
     assert main([*argv, "--eval-episodes", "1"]) == 0
@@ -535,20 +540,48 @@ def test_grid_skips_finished_runs_and_resumes_unfinished_ones(tmp_path):
 
 
 def test_the_default_grid_is_the_committed_one(tmp_path):
-    """Per-task seeds (Water Filling: 3) and Water Filling Mac-DQN's smaller replay."""
+    """Per-task seeds (Water Filling: 3) and Water Filling Mac-DQN's smaller replay, declared by
+    the paper's study; a user's setting wins over the study's."""
     dry = run_grid(tmp_path, methods=["async", "mac-dqn"], dry_run=True, log=lambda _: None)
+    paper = get_study("paper")
     for task in ("tool_delivery", "water_filling"):
         seeds = sorted({c.seed for c in dry if c.task == task})
-        assert seeds == list(task_entry(task).grid_seeds)
+        assert seeds == list(paper.task(task).seeds)
     assert set(dry.values()) == {"would start"}
-    paper = get_study("paper")
-    wf = _train_args(
+    wf, _ = cell_config(Cell("water_filling", "mac-dqn", 0), tmp_path, paper)
+    assert wf.learner.buffer_size == 10_000
+    mine, _ = cell_config(
         Cell("water_filling", "mac-dqn", 0), tmp_path, paper, ["dqn.buffer_size=20000"]
     )
-    assert wf[-2:] == ["dqn.buffer_size=10000", "dqn.buffer_size=20000"]  # the user's wins
-    assert "dqn.buffer_size=10000" not in _train_args(
-        Cell("tool_delivery", "mac-dqn", 0), tmp_path, paper, []
-    )
+    assert mine.learner.buffer_size == 20_000
+    td, resume = cell_config(Cell("tool_delivery", "mac-dqn", 0), tmp_path, paper)
+    assert td.learner.buffer_size != 10_000 and not resume
+    with pytest.raises(ValueError, match="seed=3 contradicts the grid's cell"):
+        cell_config(Cell("tool_delivery", "async", 0), tmp_path, paper, ["seed=3"])
+
+
+def test_each_committed_run_is_the_config_its_study_builds():
+    """The grid builds every committed run's config from its study's typed settings as the run
+    saved it, in every setting that changes what is computed (a run may have been trained with
+    a video, say: ``RESUMABLE_KEYS``). The runs trained from argv strings before the grid built
+    configs, so the same grid reproduces the same runs, and a partial one resumes."""
+    checked = 0
+    for name in study_names():
+        study = get_study(name)
+        root = study.runs_dir()
+        for run in discover_runs([root]) if root.exists() else []:
+            if run.method not in study.methods or run.seed not in study.task(run.task).seeds:
+                continue  # a pilot kept beside the grid
+            cell = Cell(run.task, run.method, run.seed)
+            built, _ = cell_config(cell, root.resolve(), study)
+            saved = TrainConfig.load(run.path / "config.json")
+            learnt = [
+                {k: v for k, v in c.resolved().flat().items() if k not in RESUMABLE_KEYS}
+                for c in (built, saved)
+            ]
+            assert learnt[0] == learnt[1], run.path
+            checked += 1
+    assert checked >= 40
 
 
 def test_grid_runs_train_as_a_subprocess(tmp_path):
@@ -578,10 +611,12 @@ def test_a_registered_study_runs_its_settings_and_scores_against_its_own_referen
         "a shorter Tool Delivery",
         (StudyTask("tool_delivery", (0,), settings),),
         ("async",),
-        overrides=(*TINY, "total_samples=120"),
+        overrides=frozen(
+            {"batch_ticks": 60, "num_envs": 2, "plot": False, "ppo.epochs": 2, "total_samples": 120}
+        ),
         normalised=True,
     )
-    monkeypatch.setattr(studies, "_STUDIES", dict(studies._STUDIES))  # registered here only
+    monkeypatch.setattr(registry, "_STUDIES", dict(registry._STUDIES))  # registered here only
     register_study(study.name, lambda: study)
     assert study.runs_dir() == Path("results/tiny-test/runs")
     with pytest.raises(ValueError, match="not in study 'tiny-test'"):

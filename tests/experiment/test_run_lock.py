@@ -14,9 +14,10 @@ from pathlib import Path
 import pytest
 
 from maopg.experiment import run_lock
-from maopg.experiment.reproduce import BUSY, Cell, reproduce, run_grid
 from maopg.experiment.run_dir import CONFIG, DONE, TIMING_COLUMNS, read_metrics
 from maopg.experiment.run_lock import RunDirBusy, RunDirLock, held_elsewhere
+from maopg.experiment.studies.grid import BUSY, Cell, run_grid
+from maopg.experiment.studies.results import reproduce
 from maopg.experiment.train_cli import main as train_main
 
 TINY = [

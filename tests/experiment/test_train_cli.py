@@ -183,7 +183,7 @@ def test_every_method_trains_a_tiny_budget(tmp_path, task, method):
 @pytest.mark.parametrize(
     ("method", "samples", "extra"),
     [
-        ("async", 1200, []),
+        ("async", 1200, ["eval_every=120", "eval_during_episodes=1", "env.max_ticks=40"]),
         ("partial-rnn", 480, []),
         ("async-rnn", 480, ["ppo.option_history=true", "ppo.memory_norm=true"]),
     ],
@@ -191,7 +191,9 @@ def test_every_method_trains_a_tiny_budget(tmp_path, task, method):
 def test_kill_and_resume_reproduces_the_uninterrupted_run(tmp_path, capsys, method, samples, extra):
     """Bit for bit, curve and weights; recurrent runs (per-agent GRU states, carried across
     iterations; GRUs that read the option history) included: their states are in the
-    checkpoint. A recurrent run without ``ppo.memory_norm`` is told at its start."""
+    checkpoint. A recurrent run without ``ppo.memory_norm`` is told at its start. The
+    evaluation during training (``eval_every``) is in the curve: its rows up to the
+    checkpoint survive the kill and the resumed run evaluates where the reference did."""
     common = ["--seed", "5", "--total-samples", str(samples), *tiny(method), *extra]
     reference = tmp_path / "reference"
     main([*common, "--run-dir", str(reference)])
@@ -214,6 +216,8 @@ def test_kill_and_resume_reproduces_the_uninterrupted_run(tmp_path, capsys, meth
     proc.wait()
     interrupted_rows = len(_rows(killed))
     assert interrupted_rows < len(_rows(reference)), "the run finished before it was killed"
+    evaluated = [row["eval_return"] != "nan" for row in _rows(killed) if "eval_return" in row]
+    assert any(evaluated) == ("eval_every=120" in extra), "an evaluation logged before the kill"
     assert not (killed / "final.pt").exists() and not (killed / "done.json").exists()
 
     # resumed in a fresh process, as after a crash: nothing of the reference run's process
@@ -221,6 +225,8 @@ def test_kill_and_resume_reproduces_the_uninterrupted_run(tmp_path, capsys, meth
     resume = [sys.executable, "-m", "train", "--resume", "--run-dir", str(killed)]
     subprocess.run([*resume, "progress=false"], cwd=REPO, check=True, stdout=subprocess.DEVNULL)
     assert _deterministic(_rows(killed)) == _deterministic(_rows(reference))
+    if "eval_every=120" in extra:  # ten evaluations, compared above
+        assert sum(row["eval_return"] != "nan" for row in _rows(reference)) == 10
     assert json.loads((killed / "done.json").read_text())["samples"] >= samples
     resumed, uninterrupted = (load_checkpoint(d / "final.pt") for d in (killed, reference))
     for network in ("policy", "critic"):

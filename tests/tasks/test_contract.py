@@ -53,7 +53,6 @@ def test_the_entry_resolves_to_the_task_and_its_config(task: str) -> None:
     cls = entry.task_class()
     assert issubclass(cls, Task) and issubclass(entry.config_class(), TaskConfig)
     assert cls.name == task, "rollouts and videos find the entry by the task's name"
-    assert all(isinstance(seed, int) for seed in entry.grid_seeds) and entry.grid_seeds
 
 
 @pytest.mark.parametrize(("task", "settings"), CASES)
@@ -95,6 +94,8 @@ def test_spec_spaces_and_the_reset_point_agree(task: str, settings: dict) -> Non
 @pytest.mark.parametrize("strategy", [s.value for s in Strategy])
 @pytest.mark.parametrize(("task", "settings"), CASES)
 def test_a_random_episode_keeps_the_contract(task: str, settings: dict, strategy: str) -> None:
+    if strategy not in task_entry(task).task_class().supported_strategies():
+        pytest.skip(f"task {task!r} does not declare strategy {strategy!r}")
     env = short_env(task, strategy, settings)
     seen = []
     try:

@@ -1,0 +1,36 @@
+"""Studies: named grids of runs (tasks × methods × seeds), reproduced and written up by
+``python -m eval reproduce``.
+
+- :mod:`.registry` — what a study is (:class:`Study`, :class:`StudyTask`) and the registry;
+- :mod:`.builtin` — the committed studies (the paper's comparison and the questions since);
+- :mod:`.grid` — bringing a study's runs to completion, resumably (:func:`run_grid`);
+- :mod:`.results` — its figures, tables and evaluation (:func:`reproduce`);
+- :mod:`.cache` — evaluations cached on what their numbers depend on.
+"""
+
+from __future__ import annotations
+
+from maopg.experiment.studies.registry import (
+    PAPER,
+    Study,
+    StudyTask,
+    declared_thresholds,
+    frozen,
+    get_study,
+    register_study,
+    study_names,
+)
+
+# The committed studies register themselves on import (after the registry above exists).
+from maopg.experiment.studies import builtin  # noqa: F401  isort: skip
+
+__all__ = [
+    "PAPER",
+    "Study",
+    "StudyTask",
+    "declared_thresholds",
+    "frozen",
+    "get_study",
+    "register_study",
+    "study_names",
+]

@@ -1,0 +1,46 @@
+"""What the repository keeps: weights only where a study's committed results are made from them.
+
+A study's videos and ``evaluation.md`` read the seed-0 ``final.pt`` of each of its methods; every
+other run's weights, and every pilot's, stay local (``.gitignore``) — the history keeps those
+committed before this rule. A clone stays light, and what it carries is what it needs.
+"""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from maopg.experiment.studies import get_study, study_names
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _tracked(pattern: str) -> list[Path]:
+    if shutil.which("git") is None or not (ROOT / ".git").exists():
+        pytest.skip("not a git checkout")
+    out = subprocess.run(
+        ["git", "ls-files", pattern], cwd=ROOT, capture_output=True, text=True, check=True
+    )
+    return [Path(line) for line in out.stdout.splitlines()]
+
+
+def allowed_weights() -> set[Path]:
+    """Seed 0's ``final.pt`` of every method of every registered study (and of the paper's
+    runs a study reads as its baselines)."""
+    allowed = set()
+    for name in study_names():
+        study = get_study(name)
+        for task in study.tasks:
+            if 0 not in task.seeds:
+                continue
+            for method in study.methods:
+                allowed.add(study.runs_dir() / task.task / method / "seed0" / "final.pt")
+    return allowed
+
+
+def test_only_the_weights_a_study_reads_are_committed():
+    extra = sorted(str(p) for p in _tracked("*.pt") if p not in allowed_weights())
+    assert not extra, f"weights no study's results read are committed: {extra}"
