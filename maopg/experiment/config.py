@@ -16,8 +16,9 @@ keys, sections nested (``ppo: {epochs: 5}``, ``env: {max_ticks: 100}``) or dotte
 (``ppo.epochs: 5``); a run's saved ``config.json`` is one. On a command line the file comes
 first and ``key=value`` overrides it.
 
-MAPPO's hyper-parameters used to be flat fields (``epochs=5``): the flat keys stay accepted for
-one release, with a deprecation message, and run directories written then load unchanged.
+MAPPO's hyper-parameters used to be flat fields (``epochs=5``): on the command line the flat
+keys stay accepted for one release, with a deprecation message; saved configs of any earlier
+release are brought to today's layout when read (:mod:`maopg.experiment.migration`).
 """
 
 from __future__ import annotations
@@ -39,9 +40,9 @@ from maopg.env.ray_backend import INSTALL_HINT, RayOptions, ray_available
 from maopg.env.vector import BACKENDS, EnvConfig
 from maopg.experiment.config_file import read_config_file
 from maopg.experiment.methods import get_method, section_classes
+from maopg.experiment.migration import CONFIG_SCHEMA, FLAT_PPO_KEYS, SCHEMA_KEY
 from maopg.experiment.wandb_log import INSTALL_HINT as WANDB_HINT
 from maopg.experiment.wandb_log import WandbOptions, wandb_available
-from maopg.learner.mappo import PPOConfig
 from maopg.policy import PRECISIONS
 from maopg.settings import Settings, setting
 from maopg.sim.egl_check import gl_problem
@@ -60,9 +61,6 @@ WORKERS_PER_CORE = 2
 """The most worker processes per core that ``num_workers=0`` starts: enough for the operating
 system to even out uneven steps (``bench/lockstep.py``); each more holds its own MuJoCo models
 and GL context, so 32 environments do not start 32 processes."""
-
-LEGACY_FLAT_KEYS = frozenset(f.name for f in dataclasses.fields(PPOConfig))
-"""MAPPO's hyper-parameters as the flat fields they were before the ``ppo`` section."""
 
 
 DEVICES = ("auto", "cpu", "cuda")
@@ -282,17 +280,11 @@ class TrainConfig(Settings):
 
     @staticmethod
     def from_dict(data: dict[str, Any]) -> TrainConfig:
-        """Inverse of :meth:`to_dict`; also reads configs saved before sections existed (flat
-        MAPPO keys, and a ``dqn`` section in every method's config)."""
+        """Inverse of :meth:`to_dict` (a config of an earlier release is brought to this
+        layout when its file is read: :mod:`maopg.experiment.migration`)."""
         values = dict(data)
         method = get_method(values.get("method", TrainConfig.method))
         own = method.section
-        legacy = {k: values.pop(k) for k in list(values) if k in LEGACY_FLAT_KEYS}
-        if legacy:
-            for other in set(section_classes()) - {own}:
-                values.pop(other, None)
-            if own == "ppo":
-                values["ppo"] = {**legacy, **values.get("ppo", {})}
         foreign = sorted(set(section_classes()) & set(values) - {own})
         if foreign:
             raise ValueError(
@@ -311,7 +303,9 @@ class TrainConfig(Settings):
         return config
 
     def save(self, path: Path) -> None:
-        path.write_text(json.dumps(self.to_dict(), indent=2, sort_keys=True) + "\n")
+        """As a ``config.json``: :meth:`to_dict` and the schema it is written in."""
+        data = {SCHEMA_KEY: CONFIG_SCHEMA, **self.to_dict()}
+        path.write_text(json.dumps(data, indent=2, sort_keys=True) + "\n")
 
     @staticmethod
     def load(path: Path) -> TrainConfig:
@@ -432,7 +426,7 @@ def _place_settings(pairs: list[tuple[str, Any]], method: str, *, parse: bool) -
     for key, given in pairs:
         item = f"{key}={given}"
         section, dot, name = key.partition(".")
-        if not dot and key in LEGACY_FLAT_KEYS and key not in _run_fields():
+        if not dot and key in FLAT_PPO_KEYS and key not in _run_fields():
             if own != "ppo":
                 raise ValueError(f"{key!r} is a MAPPO hyper-parameter; method {method!r} has none")
             print(

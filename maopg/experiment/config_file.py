@@ -15,6 +15,8 @@ from typing import Any
 
 import yaml
 
+from maopg.experiment.migration import migrate_config
+
 CONFIG_FORMATS = {".json": "JSON", ".yaml": "YAML", ".yml": "YAML"}
 """Config file suffixes and the format each is read as."""
 
@@ -33,9 +35,11 @@ _YAMLLoader.add_implicit_resolver(
 
 def read_config_file(path: str | Path) -> dict[str, Any]:
     """The settings of a ``.yaml``/``.yml``/``.json`` config file as
-    :func:`maopg.experiment.config.merge` takes them
-    (:func:`nest_settings`); an unreadable file, bad syntax or anything but a mapping is a
-    ``ValueError`` naming the file. Values keep the file's kinds: the config checks them."""
+    :func:`maopg.experiment.config.merge` takes them (:func:`nest_settings`), in the current
+    schema (:func:`~maopg.experiment.migration.migrate_config`: a run directory of an earlier
+    release reads as today's); an unreadable file, bad syntax, anything but a mapping or a
+    schema this version does not know is a ``ValueError`` naming the file. Values keep the
+    file's kinds: the config checks them."""
     path = Path(path)
     kind = CONFIG_FORMATS.get(path.suffix.lower())
     if kind is None:
@@ -50,7 +54,11 @@ def read_config_file(path: str | Path) -> dict[str, Any]:
         raise ValueError(f"{path} is not valid {kind}: {' '.join(str(err).split())}") from None
     if not isinstance(data, dict):
         raise ValueError(f"{path}: expected a mapping of settings, got {type(data).__name__}")
-    return nest_settings(data, str(path))
+    settings = nest_settings(data, str(path))
+    try:
+        return migrate_config(settings)
+    except ValueError as err:
+        raise ValueError(f"{path}: {err}") from None
 
 
 def nest_settings(data: dict[str, Any], where: str) -> dict[str, Any]:

@@ -17,6 +17,7 @@ from torch import nn
 from maopg.env import EnvSpec, OptionEnv
 from maopg.experiment.config import TrainConfig
 from maopg.experiment.methods import Method, get_method
+from maopg.experiment.migration import migrate_checkpoint
 from maopg.experiment.run_dir import CHECKPOINT, FINAL
 from maopg.learner import Actor, CheckpointError, fitting, load_checkpoint
 from maopg.plugins import load_plugins
@@ -76,7 +77,7 @@ def load_trained(path: str | Path, device: str = "cpu") -> Trained:
     result is the device it was loaded on.
     """
     file = resolve_checkpoint(path)
-    state = load_checkpoint(file, required=("config",))
+    state = migrate_checkpoint(load_checkpoint(file, required=("config",)))
     load_plugins(state["config"].get("plugins", []))  # the run's task or method may be theirs
     saved = TrainConfig.from_dict(state["config"])
     config = dataclasses.replace(saved, device=device).resolved()

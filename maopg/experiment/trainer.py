@@ -37,6 +37,7 @@ from maopg.experiment import evaluate as evaluation
 from maopg.experiment.config import RUN_SECTIONS, TrainConfig
 from maopg.experiment.loading import load_trained
 from maopg.experiment.methods import get_method
+from maopg.experiment.migration import CHECKPOINT_SCHEMA, SCHEMA_KEY, migrate_checkpoint
 from maopg.experiment.run_dir import (
     CHECKPOINT,
     CONFIG,
@@ -280,12 +281,10 @@ def _check_checkpoint(state: dict, config: TrainConfig, path: Path) -> None:
 
 
 def _envs_state(state: dict, path: Path) -> dict:
-    """The environments' entry of a checkpoint (``sampler`` in checkpoints written before the
-    vector environments had their own module)."""
-    for key in ("envs", "sampler"):
-        if key in state:
-            return state[key]
-    raise CheckpointError(f"checkpoint {path} lacks the entries ['envs']")
+    """The environments' entry of a checkpoint (of any schema: :func:`migrate_checkpoint`)."""
+    if "envs" not in state:
+        raise CheckpointError(f"checkpoint {path} lacks the entries ['envs']")
+    return state["envs"]
 
 
 def _against(trained: int, budget: int) -> str:
@@ -475,7 +474,9 @@ def _train(config: TrainConfig, lock: RunDirLock, *, resume: bool, overwrite: bo
                 (run_dir / stale).unlink(missing_ok=True)
         iteration, samples, wall_time = 0, 0, 0.0
         if resume:
-            state = load_checkpoint(checkpoint_path, required=("iteration", "config"))
+            state = migrate_checkpoint(
+                load_checkpoint(checkpoint_path, required=("iteration", "config"))
+            )
             _check_checkpoint(state, config, checkpoint_path)
             with fitting(checkpoint_path):
                 learner.load_state_dict(state)
@@ -505,6 +506,7 @@ def _train(config: TrainConfig, lock: RunDirLock, *, resume: bool, overwrite: bo
             save_checkpoint(
                 checkpoint_path,
                 {
+                    SCHEMA_KEY: CHECKPOINT_SCHEMA,
                     "config": config.to_dict(),
                     "iteration": iteration,
                     "samples": samples,
@@ -577,6 +579,7 @@ def _train(config: TrainConfig, lock: RunDirLock, *, resume: bool, overwrite: bo
         save_checkpoint(
             run_dir / FINAL,
             {
+                SCHEMA_KEY: CHECKPOINT_SCHEMA,
                 "config": config.to_dict(),
                 "iteration": iteration,
                 "samples": samples,

@@ -19,6 +19,7 @@ import pytest
 from maopg.env import make_env
 from maopg.env.pettingzoo import OptionParallelEnv
 from maopg.experiment.eval_cli import main as eval_main
+from maopg.experiment.migration import CONFIG_SCHEMA
 from maopg.experiment.studies import get_study
 from maopg.experiment.studies.grid import Cell, cell_config
 from maopg.experiment.train_cli import main as train_main
@@ -281,6 +282,7 @@ def test_the_resolved_config_is_written_and_reads_back_as_a_config_file(tmp_path
     ]
     assert train_main(argv) == 0
     saved = json.loads((run_dir / "config.json").read_text())
+    assert saved.pop("schema") == CONFIG_SCHEMA  # the layout it is written in
     assert saved["hidden"] == 16 and saved["env_overrides"] == {"max_ticks": 40}
     assert saved == _resolved(argv)
     assert _resolved(["--config", str(run_dir / "config.json")]) == saved

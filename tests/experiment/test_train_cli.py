@@ -131,18 +131,13 @@ def test_each_task_also_trains_from_its_other_observation_kind(tmp_path, task, i
     assert int(_rows(run_dir)[-1]["samples"]) >= 120
 
 
-def test_flat_mappo_keys_are_deprecated_aliases_and_old_configs_load(capsys):
+def test_flat_mappo_keys_are_deprecated_aliases(capsys):
+    """On the command line; saved configs with flat keys: tests/experiment/test_migration.py."""
     config, _ = parse_args(["--method", "async", "epochs=3", "lr=1e-3"])
     assert config.learner == PPOConfig(epochs=3, lr=1e-3)
     assert "deprecated" in capsys.readouterr().err
     with pytest.raises(ValueError, match="is a MAPPO hyper-parameter"):
         parse_args(["--method", "mac-dqn", "epochs=3"])  # Mac-DQN has no MAPPO section
-    # a config.json written before sections existed: flat MAPPO keys, a dqn section everywhere
-    legacy = {**TrainConfig().to_dict(), "epochs": 7, "discount": "option", "dqn": {"lr": 1.0}}
-    del legacy["ppo"]
-    assert TrainConfig.from_dict(legacy).learner == PPOConfig(epochs=7, discount="option")
-    legacy_dqn = {**legacy, "method": "mac-dqn"}
-    assert TrainConfig.from_dict(legacy_dqn).learner == MacDQNConfig(lr=1.0)
 
 
 @pytest.mark.parametrize("method", method_names())
@@ -349,20 +344,3 @@ def test_a_users_registered_task_gets_generic_defaults(tmp_path, monkeypatch):
 def test_method_as_a_key_value_picks_its_section():
     config, _ = parse_args(["method=mac-dqn", "dqn.train_every=9"])
     assert config.method == "mac-dqn" and config.learner == MacDQNConfig(train_every=9)
-
-
-def test_a_checkpoint_from_before_the_vector_env_module_resumes(tmp_path):
-    """Checkpoints written before ``maopg.env.vector`` named the environments' state
-    ``sampler``; an unfinished run of that time still resumes, bit for bit."""
-    from maopg.learner import save_checkpoint
-
-    whole, old = tmp_path / "whole", tmp_path / "old"
-    common = ["--seed", "4", *TINY]
-    main([*common, "--total-samples", "240", "--run-dir", str(whole)])
-    main([*common, "--total-samples", "120", "--run-dir", str(old)])
-    state = load_checkpoint(old / "checkpoint.pt")
-    state["sampler"] = state.pop("envs")
-    save_checkpoint(old / "checkpoint.pt", state)
-    (old / "done.json").unlink()
-    main(["--resume", "--run-dir", str(old), "--total-samples", "240", "progress=false"])
-    assert _deterministic(_rows(old)) == _deterministic(_rows(whole))

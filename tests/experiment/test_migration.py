@@ -1,0 +1,102 @@
+"""Configs and checkpoints of earlier releases load through one step (maopg.experiment.migration):
+every committed run directory, a schema-1 config and a schema-1 checkpoint that resumes bit for
+bit; a schema from the future is one clear line."""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+import pytest
+
+from maopg.experiment.config import TrainConfig
+from maopg.experiment.config_file import read_config_file
+from maopg.experiment.loading import load_trained
+from maopg.experiment.migration import (
+    CHECKPOINT_SCHEMA,
+    CONFIG_SCHEMA,
+    SCHEMA_KEY,
+    migrate_checkpoint,
+    migrate_config,
+)
+from maopg.experiment.run_dir import TIMING_COLUMNS
+from maopg.experiment.train_cli import main
+from maopg.learner import CheckpointError, MacDQNConfig, PPOConfig, load_checkpoint
+from maopg.learner.checkpoint import save_checkpoint
+
+RESULTS = Path(__file__).resolve().parents[2] / "results"
+TINY = ["--task", "tool_delivery", "batch_ticks=60", "num_envs=2", "checkpoint_every=1"]
+TINY += ["env.max_ticks=40", "video=false", "eval_episodes=0", "plot=false", "ppo.epochs=2"]
+
+
+def test_every_committed_config_loads_and_resolves():
+    """151 saved configs of several releases: flat MAPPO keys, a dqn section in every
+    method's config, sections (schema 1 all, without the key)."""
+    paths = sorted(RESULTS.rglob("config.json"))
+    assert len(paths) >= 100
+    for path in paths:
+        TrainConfig.load(path).resolved()
+
+
+def test_the_committed_checkpoints_load():
+    """Every committed Tool Delivery policy and Water Filling's recurrent one (schema 1); the
+    other Water Filling policies' checkpoints are of the same schema, and each study's
+    evaluation loads them all (a camera environment each: too slow for this test)."""
+    paths = sorted(RESULTS.rglob("tool_delivery/*/seed0/final.pt"))
+    paths.append(RESULTS / "memory/runs/water_filling/async-rnn/seed0/final.pt")
+    assert len(paths) >= 10
+    for path in paths:
+        trained = load_trained(path)
+        assert trained.samples > 0
+
+
+def test_a_schema_1_config_moves_flat_keys_into_its_section():
+    legacy = {**TrainConfig().to_dict(), "epochs": 7, "discount": "option", "dqn": {"lr": 1.0}}
+    del legacy["ppo"]
+    assert TrainConfig.from_dict(migrate_config(legacy)).learner == PPOConfig(
+        epochs=7, discount="option"
+    )
+    dqn = {**legacy, "method": "mac-dqn"}  # flat MAPPO keys meant nothing to Mac-DQN
+    assert TrainConfig.from_dict(migrate_config(dqn)).learner == MacDQNConfig(lr=1.0)
+    current = TrainConfig().to_dict()  # sections already: read as it is
+    assert migrate_config(current) == current
+
+
+def test_a_saved_config_records_its_schema_and_a_future_one_is_refused(tmp_path):
+    path = tmp_path / "config.json"
+    TrainConfig(task="tool_delivery").save(path)
+    assert json.loads(path.read_text())[SCHEMA_KEY] == CONFIG_SCHEMA
+    assert TrainConfig.load(path).to_dict() == TrainConfig(task="tool_delivery").to_dict()
+    path.write_text(json.dumps({SCHEMA_KEY: CONFIG_SCHEMA + 1, "task": "tool_delivery"}))
+    with pytest.raises(ValueError, match=r"config\.json: config schema 3: this maopg reads"):
+        read_config_file(path)
+    with pytest.raises(ValueError, match="checkpoint schema 3"):
+        migrate_checkpoint({SCHEMA_KEY: CHECKPOINT_SCHEMA + 1})
+
+
+def _rows(run_dir: Path) -> list[dict[str, str]]:
+    with (run_dir / "metrics.csv").open() as handle:
+        return [
+            {k: v for k, v in row.items() if k not in TIMING_COLUMNS}
+            for row in csv.DictReader(handle)
+        ]
+
+
+def test_a_schema_1_checkpoint_resumes_bit_for_bit(tmp_path):
+    """A checkpoint as releases before the schema wrote it — no schema entry, the environments'
+    state under ``sampler``, a config with flat MAPPO keys — resumes as an uninterrupted run."""
+    whole, old = tmp_path / "whole", tmp_path / "old"
+    common = ["--seed", "4", *TINY]
+    assert main([*common, "--total-samples", "240", "--run-dir", str(whole)]) == 0
+    assert main([*common, "--total-samples", "120", "--run-dir", str(old)]) == 0
+    state = load_checkpoint(old / "checkpoint.pt")
+    assert state.pop(SCHEMA_KEY) == CHECKPOINT_SCHEMA
+    state["sampler"] = state.pop("envs")
+    state["config"] = {**state["config"], **state["config"].pop("ppo")}
+    save_checkpoint(old / "checkpoint.pt", state)
+    (old / "done.json").unlink()
+    assert main(["--resume", "--run-dir", str(old), "--total-samples", "240"]) == 0
+    assert _rows(old) == _rows(whole)
+    with pytest.raises(CheckpointError, match="lacks the entries"):
+        load_trained(save_checkpoint(tmp_path / "bare.pt", {"iteration": 1}))
