@@ -16,8 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
-from maopg.experiment.runs import PAPER_METRIC, RETURN, load_run, samples_to_threshold
 from maopg.experiment.studies.grid import log_to_stderr, run_grid
+from maopg.experiment.studies.runs import PAPER_METRIC, RETURN, load_run, samples_to_threshold
 from maopg.experiment.sysinfo import markdown
 
 TASK, METHOD = "tool_delivery", "async"

@@ -31,7 +31,7 @@ import statistics
 
 import numpy as np
 
-from maopg.experiment.runs import RETURN, RunData, discover_runs, final
+from maopg.experiment.studies.runs import RETURN, RunData, discover_runs, final
 
 
 def _group(spec: str) -> tuple[str, list[RunData]]:

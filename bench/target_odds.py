@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from maopg.experiment.runs import RunData, discover_runs, final_iterations
+from maopg.experiment.studies.runs import RunData, discover_runs, final_iterations
 
 
 def final_episode_counts(run: RunData) -> list[int]:

@@ -36,7 +36,7 @@ import torch
 
 from maopg.experiment.config import TrainConfig
 from maopg.experiment.run_dir import read_done
-from maopg.experiment.runs import RunData, final, load_run, peak
+from maopg.experiment.studies.runs import RunData, final, load_run, peak
 from maopg.experiment.sysinfo import markdown
 from maopg.experiment.trainer import train
 from maopg.policy import PRECISIONS

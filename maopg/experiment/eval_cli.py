@@ -234,8 +234,8 @@ def _which(args: argparse.Namespace) -> str:
 
 
 def cmd_plot(args: argparse.Namespace) -> int:
-    from maopg.experiment.plots import plot_all
-    from maopg.experiment.runs import discover_runs
+    from maopg.experiment.studies.plots import plot_all
+    from maopg.experiment.studies.runs import discover_runs
 
     runs = discover_runs(args.runs, unfinished=args.unfinished)
     if not runs:
@@ -263,9 +263,9 @@ def cmd_plot(args: argparse.Namespace) -> int:
 
 
 def cmd_table(args: argparse.Namespace) -> int:
-    from maopg.experiment.runs import discover_runs
     from maopg.experiment.studies import declared_thresholds
-    from maopg.experiment.tables import peak_table, threshold_table
+    from maopg.experiment.studies.runs import discover_runs
+    from maopg.experiment.studies.tables import peak_table, threshold_table
 
     runs = discover_runs(args.runs, unfinished=args.unfinished)
     if not runs:

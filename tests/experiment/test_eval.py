@@ -19,19 +19,7 @@ from maopg.experiment.config import RUN_SECTIONS, TrainConfig
 from maopg.experiment.eval_cli import main
 from maopg.experiment.evaluate import evaluate
 from maopg.experiment.loading import load_trained
-from maopg.experiment.plots import curve_table, plot_all, plot_task
 from maopg.experiment.run_dir import DONE, FINAL
-from maopg.experiment.runs import (
-    NOT_LEARNT_SECTIONS,
-    discover_runs,
-    final,
-    group_runs,
-    load_run,
-    mean_curve,
-    peak,
-    samples_to_threshold,
-    trailing_mean,
-)
 from maopg.experiment.studies import (
     Study,
     StudyTask,
@@ -43,8 +31,20 @@ from maopg.experiment.studies import (
 )
 from maopg.experiment.studies.cache import behaviour
 from maopg.experiment.studies.grid import Cell, cell_config, cell_state, run_grid
+from maopg.experiment.studies.plots import curve_table, plot_all, plot_task
 from maopg.experiment.studies.results import reference_lines, reproduce, write_results
-from maopg.experiment.tables import peak_table, threshold_table
+from maopg.experiment.studies.runs import (
+    NOT_LEARNT_SECTIONS,
+    discover_runs,
+    final,
+    group_runs,
+    load_run,
+    mean_curve,
+    peak,
+    samples_to_threshold,
+    trailing_mean,
+)
+from maopg.experiment.studies.tables import peak_table, threshold_table
 from maopg.experiment.train_cli import main as train_main
 from maopg.experiment.trainer import RESUMABLE_KEYS
 from maopg.policy import DistributionActor, QActor

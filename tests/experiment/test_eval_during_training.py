@@ -18,7 +18,7 @@ from maopg.experiment.eval_cli import main as eval_main
 from maopg.experiment.evaluate import NO_EVALUATION, evaluation_due, evaluation_seeds
 from maopg.experiment.run_dir import EVAL_COLUMNS, TIMING_COLUMNS, RunLog
 from maopg.experiment.run_eta import RunRates, estimate_run
-from maopg.experiment.runs import load_run
+from maopg.experiment.studies.runs import load_run
 from maopg.experiment.train_cli import main
 from maopg.learner import load_checkpoint
 

@@ -5,6 +5,8 @@
 - :mod:`.builtin` — the committed studies (the paper's comparison and the questions since);
 - :mod:`.grid` — bringing a study's runs to completion, resumably (:func:`run_grid`);
 - :mod:`.results` — its figures, tables and evaluation (:func:`reproduce`);
+- :mod:`.runs` — reading logged run directories (curves, finals, groups of seeds);
+- :mod:`.tables`, :mod:`.plots` — result tables and learning curves from them;
 - :mod:`.cache` — evaluations cached on what their numbers depend on.
 """
 

@@ -16,14 +16,14 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from maopg.experiment.evaluate import evaluate, results_table
-from maopg.experiment.plots import curve_table, plot_task
 from maopg.experiment.run_dir import FINAL
 from maopg.experiment.run_lock import held_elsewhere
-from maopg.experiment.runs import RunData, differing_settings, discover_runs, task_settings
 from maopg.experiment.studies.cache import behaviour, cached, sha256
 from maopg.experiment.studies.grid import BUSY, Cell, run_grid
+from maopg.experiment.studies.plots import curve_table, plot_task
 from maopg.experiment.studies.registry import PAPER, Study, StudyTask, get_study
-from maopg.experiment.tables import normalised_table, peak_table, threshold_table
+from maopg.experiment.studies.runs import RunData, differing_settings, discover_runs, task_settings
+from maopg.experiment.studies.tables import normalised_table, peak_table, threshold_table
 
 if TYPE_CHECKING:
     from maopg.experiment.loading import Trained

@@ -13,7 +13,7 @@ import textwrap
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 
-from maopg.experiment.runs import (
+from maopg.experiment.studies.runs import (
     PAPER_METRIC,
     RETURN,
     RunData,

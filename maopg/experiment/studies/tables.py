@@ -18,7 +18,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Mapping, Sequence
 
-from maopg.experiment.runs import (
+from maopg.experiment.studies.runs import (
     PAPER_METRIC,
     RETURN,
     RunData,
@@ -29,7 +29,7 @@ from maopg.experiment.runs import (
     group_runs,
     peak,
 )
-from maopg.experiment.runs import samples_to_threshold as _samples_to_threshold
+from maopg.experiment.studies.runs import samples_to_threshold as _samples_to_threshold
 
 
 def format_summary(summary: Summary, digits: int = 1) -> str:
