@@ -20,7 +20,7 @@ from maopg.tasks.registry import (
 )
 
 # The built-ins register themselves on import (after the registry above exists).
-from maopg.tasks import box_pushing_grid, tool_delivery, water_filling  # noqa: F401  isort: skip
+from maopg.tasks import box_pushing, box_pushing_grid, tool_delivery, water_filling  # noqa: F401  isort: skip
 
 __all__ = [
     "ObsLayout",

@@ -186,7 +186,7 @@ class RobotAdapter(ABC):
 class GroundAdapter(RobotAdapter):
     """A robot that moves on the floor plane: turtlebot, vehicle, the swap-demo robot."""
 
-    COMMANDS = ("drive_to", "set_velocity")
+    COMMANDS = ("drive_to", "set_velocity", "turn_to")
 
     @property
     def max_speed(self) -> float:
@@ -199,6 +199,15 @@ class GroundAdapter(RobotAdapter):
     @abstractmethod
     def set_velocity(self, vx: float, vy: float) -> None:
         """World-frame planar velocity command (m/s)."""
+
+    def turn_to(self, yaw: float) -> None:
+        """Stop where the robot is and turn in place to heading ``yaw`` (rad about world z):
+        what a task whose robots face a way (Box Pushing's turns) asks. Both shipped drives
+        implement it; a drive that cannot turn in place keeps this default, which refuses."""
+        raise NotImplementedError(
+            f"robot {self.prefix!r} ({type(self).__name__}) cannot turn in place: its adapter "
+            "has no turn_to()"
+        )
 
     def at(self, xy: Sequence[float], tol: float) -> bool:
         pos = self.data.xpos[self.root_body_id]
@@ -342,6 +351,11 @@ class PlanarGroundAdapter(GroundAdapter):
         speed = math.hypot(vx, vy)
         scale = self.max_speed / speed if speed > self.max_speed else 1.0
         self._vel = (vx * scale, vy * scale)
+
+    def turn_to(self, yaw: float) -> None:
+        """Brake where the robot is (as :meth:`hold`) with ``yaw`` as the heading to keep."""
+        self.hold()
+        self._heading = float(yaw)
 
     def apply(self) -> None:
         c0, s0 = self._cos0, self._sin0

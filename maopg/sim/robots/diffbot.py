@@ -5,7 +5,8 @@ moved only by wheel-floor friction, and it cannot strafe. Its adapter still impl
 :class:`~maopg.sim.robots.base.GroundAdapter` API, so a task that drives a Turtlebot or the
 vehicle drives this robot unchanged. ``drive_to`` is a heading controller run at
 ``control_hz``: turn toward the target (in place when it is far off the nose), then roll at
-``min(speed, pos_kp * distance)`` scaled by the cosine of the heading error.
+``min(speed, pos_kp * distance)`` scaled by the cosine of the heading error; ``turn_to`` spins
+it on the spot with the same heading gain.
 """
 
 from __future__ import annotations
@@ -62,6 +63,7 @@ class DiffbotAdapter(GroundAdapter):
         self._goal: tuple[float, float] | None = None
         self._speed = self.max_speed
         self._vel = (0.0, 0.0)
+        self._face: float | None = None
         self.hold()
 
     def hold(self) -> None:
@@ -69,17 +71,25 @@ class DiffbotAdapter(GroundAdapter):
         self.drive_to((pos[0], pos[1]))
 
     def drive_to(self, xy: Sequence[float], speed: float | None = None) -> None:
-        self._goal = (float(xy[0]), float(xy[1]))
+        self._goal, self._face = (float(xy[0]), float(xy[1])), None
         self._speed = self.max_speed if speed is None else min(float(speed), self.max_speed)
 
     def set_velocity(self, vx: float, vy: float) -> None:
         """Turn toward the commanded direction and roll at its magnitude (capped)."""
-        self._goal = None
+        self._goal, self._face = None, None
         self._vel = (float(vx), float(vy))
+
+    def turn_to(self, yaw: float) -> None:
+        """Spin on the spot (no forward speed) until the heading is ``yaw``."""
+        self._goal, self._face = None, float(yaw)
 
     def apply(self) -> None:
         c = self.constants
         yaw = self.yaw
+        if self._face is not None:
+            err = wrap_angle(self._face - yaw)
+            self._set_wheels(0.0, max(-c.max_turn_rate, min(c.max_turn_rate, c.heading_kp * err)))
+            return
         if self._goal is not None:
             pos = self.data.xpos[self.root_body_id]
             dx, dy = self._goal[0] - pos[0], self._goal[1] - pos[1]

@@ -1,0 +1,18 @@
+"""Box Pushing in MuJoCo (issue #43): the grid benchmark with physical robots and boxes.
+Registration of the task and what the project needs to know about it; the modules are imported
+lazily, on first use of the entry."""
+
+from __future__ import annotations
+
+from maopg.tasks.registry import register_task
+
+register_task(
+    "box_pushing",
+    f"{__name__}.task:BoxPushing",
+    config=f"{__name__}.config:Config",
+    # The grid's reference policy itself: it reads option names and the big-box bit, which
+    # this task shares with the grid (maopg/tasks/box_pushing/task.py).
+    scripted="maopg.tasks.box_pushing_grid.scripted:scripted_policy",
+    state_lines=f"{__name__}.display:state_lines",
+    train_defaults={"batch_ticks": 1000, "total_samples": 500_000, "images": False},
+)

@@ -1,0 +1,65 @@
+"""Box Pushing's config, in a module of its own: the registry reads its defaults and validates
+overrides without importing the simulation."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from maopg.settings import setting
+from maopg.tasks.base import SceneTaskConfig
+from maopg.tasks.box_pushing_grid.config import SIZES
+from maopg.tasks.box_pushing_grid.config import Config as GridConfig
+
+
+@dataclass(frozen=True)
+class Config(SceneTaskConfig):
+    """Box Pushing settings: the grid's layout and rewards (``box_pushing_grid``) in metres and
+    newtons. The physical defaults are calibrated for the Turtlebot (see
+    ``maopg/tasks/box_pushing/task.py`` for what they measure to)."""
+
+    size: int = setting(6, choices=SIZES)
+    """Side of the square arena, in cells (the grid's sizes)."""
+    agents: int = setting(2, choices=(2, 3))
+    """Team size: the canonical two, or three (the third starts left of the middle of the
+    second row, facing north, as on the grid)."""
+    max_ticks: int = 100
+    """The horizon: the grid's 100 ticks, five times the scripted episode on 10x10 (21 ticks;
+    11 on 6x6); a timeout is a truncation, never a termination."""
+    tick_seconds: float = 1.0
+    """One tick moves a Turtlebot one cell (0.6 m at its 0.6 m/s), as a grid step does."""
+    timestep: float = 0.01
+    """10 ms: over random episodes a box and what touches it overlap at most 7.5 mm (at 20 ms:
+    1.7 cm; two robots meeting head-on 1.4 cm, at 20 ms 3.3 cm), one robot holds a big box 15%
+    lighter than the default (at 20 ms it turns it), and the differential drive's wheel servos
+    turn it on the spot without rocking."""
+    turtlebot_robot: str = "turtlebot"
+    """The robots' registered name: any ground robot whose adapter can ``turn_to`` a heading."""
+    cell_size: float = setting(0.6, ge=0.45, le=2.0)
+    """Side of a grid cell (m): the Turtlebot (0.35 m across) passes a box (0.8 cell wide) in
+    the next column with 0.18 m to spare, and two stand side by side below the big box."""
+    small_box_mass: float = setting(3.0, gt=0.0)
+    """kg: 18 N of floor friction, a tenth of what one Turtlebot pushes with."""
+    big_box_mass: float = setting(47.0, gt=0.0)
+    """kg: 277 N of floor friction, beyond one Turtlebot (180 N), within two (360 N)."""
+    box_friction: float = setting(0.6, gt=0.0)
+    """Sliding friction between a box and the floor (against robots, walls and other boxes a
+    box slides at ``arena.BOX_SIDE_FRICTION``)."""
+    big_box_reward: float = GridConfig.big_box_reward
+    small_box_reward: float = GridConfig.small_box_reward
+    penalty: float = GridConfig.penalty
+    """Paid for a Push into a wall (started at the border facing out) and for a Push that
+    stalls: against the big box alone, or anything else it cannot move."""
+    step_reward: float = GridConfig.step_reward
+    stall_ticks: int = setting(2, ge=1)
+    """A Push ends, penalised, after this many ticks in a row of less than ``stall_distance``
+    of progress."""
+    stall_distance: float = setting(0.05, gt=0.0)
+    """Progress (m) along its heading under which a pushing robot's tick counts as stalled."""
+    arrive_tol: float = setting(0.05, gt=0.0)
+    """A robot within this distance of a waypoint (or of the end of its Push lane) is there."""
+    face_tol: float = setting(0.1, gt=0.0)
+    """A robot faces a heading within this angle (rad): where a GoTo or a turn ends."""
+    turn_ticks: int = setting(3, ge=1)
+    """A turn that has not reached its heading ends after this many ticks (a robot in the way)."""
+    nav_slack_ticks: int = setting(4, ge=0)
+    """A GoTo gives up this many ticks after its route's full-speed travel time."""
