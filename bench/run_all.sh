@@ -13,7 +13,7 @@ PY=.venv/bin/python
   echo "sections that read the memory study's pilots or first runs (\`results/memory/pilots/\`,"
   echo "\`results/memory/unnormalised/\`) need their weights restored from the history first"
   echo "(results/memory/README.md, \"Weights\")."
-  for script in sim_bench culling td_bench td_teams policy_scaling compare_checkouts startup backends scale_out wf_bench \
+  for script in sim_bench culling td_bench td_teams policy_scaling compare_checkouts startup backends scale_out wf_bench box_pushing_bench \
     wf_teams lockstep precision policy_modes \
     learning_td macdqn_vs_async train_speed_wf; do
     echo
