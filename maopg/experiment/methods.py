@@ -27,10 +27,13 @@ from maopg.learner.mappo import (
     partial_factored_policy,
     partial_policy,
 )
+from maopg.policy.joint_size import BuildTarget
 
 PolicyBuilder = Callable[..., nn.Module]
-"""``builder(spec, *, hidden, layers, config) -> network``: the acting network of a method from
-the environment's spec, the run's network size and the learner's config section."""
+"""``builder(spec, *, hidden, layers, config, target) -> network``: the acting network of a
+method from the environment's spec, the run's network size, the learner's config section and
+what it is built for (:class:`~maopg.policy.joint_size.BuildTarget`: the memory a head with one
+output per joint option must fit in)."""
 
 
 @dataclass(frozen=True)
@@ -65,8 +68,18 @@ class Method:
         """Its config section: the learner's defaults, then :attr:`settings`, then ``given``."""
         return self.config_class(**{**dict(self.settings), **given})
 
-    def build_policy(self, spec: EnvSpec, *, hidden: int, layers: int, config: Any) -> nn.Module:
-        return self.policy(spec, hidden=hidden, layers=layers, config=config)
+    def build_policy(
+        self,
+        spec: EnvSpec,
+        *,
+        hidden: int,
+        layers: int,
+        config: Any,
+        target: BuildTarget | None = None,
+    ) -> nn.Module:
+        """Its acting network, built for ``target`` (default: to act on this machine)."""
+        target = target if target is not None else BuildTarget.this_machine()
+        return self.policy(spec, hidden=hidden, layers=layers, config=config, target=target)
 
 
 _METHODS: dict[str, Method] = {}

@@ -73,7 +73,7 @@ from maopg.learner import (
     restore_global_rng,
     save_checkpoint,
 )
-from maopg.policy.joint_size import building_for
+from maopg.policy.joint_size import BuildTarget
 
 RESUMABLE_KEYS = (
     "total_samples",
@@ -124,8 +124,8 @@ def build_learner(
     environments of ``spec``: what :func:`train` learns with, and what a benchmark times."""
     method = get_method(config.method)
     size = {"hidden": config.hidden, "layers": config.layers}
-    with building_for(config.device, batch_ticks=config.batch_ticks):  # type: ignore[arg-type]
-        policy = method.build_policy(spec, **size, config=config.learner)
+    target = BuildTarget.for_training(config.device, batch_ticks=config.batch_ticks)  # type: ignore[arg-type]
+    policy = method.build_policy(spec, **size, config=config.learner, target=target)
     setup = LearnerSetup(
         spec=spec,
         config=config.learner,

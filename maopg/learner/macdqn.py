@@ -58,7 +58,7 @@ from maopg.policy import (
     ravel_joint,
     stack_conditions,
 )
-from maopg.policy.joint_size import require_joint_head_fits
+from maopg.policy.joint_size import BuildTarget, require_joint_head_fits
 from maopg.settings import Settings, setting
 
 
@@ -378,7 +378,7 @@ class MacDQNLearner(Learner):
 
 
 def joint_q_network(
-    spec: EnvSpec, *, hidden: int, layers: int, config: MacDQNConfig
+    spec: EnvSpec, *, hidden: int, layers: int, config: MacDQNConfig, target: BuildTarget
 ) -> JointQNetwork:
     """Mac-DQN's acting network (the method registry's policy builder); a team whose joint
     option set cannot fit is refused before anything is allocated
@@ -392,5 +392,6 @@ def joint_q_network(
         rows=rows,
         who="mac-dqn's Q-network",
         instead="Mac-DQN's centralized Q grows as ΠK_i and cannot scale; use async-ar",
+        target=target,
     )
     return JointQNetwork(spec, hidden=hidden, layers=layers, recurrent=config.recurrent)

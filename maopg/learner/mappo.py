@@ -58,7 +58,7 @@ from maopg.policy import (
     set_precision,
     stack_conditions,
 )
-from maopg.policy.joint_size import build_target, require_joint_head_fits
+from maopg.policy.joint_size import BuildTarget, require_joint_head_fits
 from maopg.settings import Settings, setting
 
 
@@ -408,18 +408,18 @@ PRODUCT_WAY_OUT = (
 )
 
 
-def update_rows(config: Any) -> int:
+def update_rows(config: Any, target: BuildTarget) -> int:
     """Rows of joint logits an update over a product categorical holds at once: a
-    minibatch's decision points (at most about one per tick of the run's batch,
-    :func:`~maopg.policy.joint_size.build_target`) times the logits, their log-softmax and
-    its gradient. ``config`` is the learner's section: a user's learner that reuses these
-    builders may have no ``num_minibatches`` (one minibatch, then)."""
+    minibatch's decision points (at most about one per tick of the ``target`` run's batch)
+    times the logits, their log-softmax and its gradient. ``config`` is the learner's section:
+    a user's learner that reuses these builders may have no ``num_minibatches`` (one
+    minibatch, then)."""
     minibatches = int(getattr(config, "num_minibatches", 1))
-    return 3 * max(1, build_target().batch_ticks // minibatches)
+    return 3 * max(1, target.batch_ticks // minibatches)
 
 
 def centralized_policy(
-    spec: EnvSpec, *, hidden: int, layers: int, config: PPOConfig
+    spec: EnvSpec, *, hidden: int, layers: int, config: PPOConfig, target: BuildTarget
 ) -> CentralizedPolicy:
     """The paper's conditional centralized policy (the method registry's policy builder); a
     team whose joint option set cannot fit is refused before anything is allocated
@@ -428,15 +428,16 @@ def centralized_policy(
         spec.option_counts,
         hidden=hidden,
         copies=4,  # weights, gradient, Adam's two moments
-        rows=update_rows(config),
+        rows=update_rows(config, target),
         who="the centralized policy",
         instead=PRODUCT_WAY_OUT,
+        target=target,
     )
     return CentralizedPolicy(spec, hidden=hidden, layers=layers, memory=memory_design(config))
 
 
 def autoregressive_policy(
-    spec: EnvSpec, *, hidden: int, layers: int, config: PPOConfig
+    spec: EnvSpec, *, hidden: int, layers: int, config: PPOConfig, target: BuildTarget
 ) -> AutoregressivePolicy:
     """The same conditional, factored by the chain rule: one small factor per choosing agent
     (linear in the team size, where the product categorical grows as ``ΠK_i``)."""
@@ -444,7 +445,7 @@ def autoregressive_policy(
 
 
 def partial_factored_policy(
-    spec: EnvSpec, *, hidden: int, layers: int, config: PPOConfig
+    spec: EnvSpec, *, hidden: int, layers: int, config: PPOConfig, target: BuildTarget
 ) -> PartialFactoredPolicy:
     """The partially centralized policy with one factor per agent instead of joint logits
     (linear in the team size, where ``partial``'s heads grow as ``ΠK_i``)."""
@@ -452,7 +453,7 @@ def partial_factored_policy(
 
 
 def partial_policy(
-    spec: EnvSpec, *, hidden: int, layers: int, config: PPOConfig
+    spec: EnvSpec, *, hidden: int, layers: int, config: PPOConfig, target: BuildTarget
 ) -> PartiallyCentralizedPolicy:
     """One policy per agent from its local observation (paper §III-D), each with joint logits
     over the whole team's options: refused, as :func:`centralized_policy`, where they cannot
@@ -461,9 +462,10 @@ def partial_policy(
         spec.option_counts,
         hidden=hidden,
         copies=4 * len(spec.option_counts),  # each agent's head: weights, gradient, Adam's two
-        rows=len(spec.option_counts) * update_rows(config),
+        rows=len(spec.option_counts) * update_rows(config, target),
         who="the partially centralized policy",
         instead=PRODUCT_WAY_OUT,
+        target=target,
     )
     return PartiallyCentralizedPolicy(
         spec, hidden=hidden, layers=layers, memory=memory_design(config)

@@ -10,10 +10,9 @@ The estimate counts what certainly exists, in float32: the head's weights ``(hid
 times the copies the learner keeps of them (weights, gradient, Adam's two moments, a target
 network), plus the rows of ``ΠK`` values one update holds at once. The limit is half the memory
 the networks train in: the machine's, or for a run on a GPU the lesser of the machine's
-(networks are built on the CPU, then moved) and the GPU's. The trainer says what it builds for
-— that device, and the run's batch, which bounds how many decision points an update holds —
-while it builds the method's networks (:func:`building_for`), so a plugin's builder that calls
-:func:`require_joint_head_fits` is held to the same limit without arguments of its own.
+(networks are built on the CPU, then moved) and the GPU's. Every policy builder is told what it
+builds for — a :class:`BuildTarget`: that memory, and the run's batch, which bounds how many
+decision points an update holds — and hands it to :func:`require_joint_head_fits`.
 """
 
 from __future__ import annotations
@@ -21,9 +20,7 @@ from __future__ import annotations
 import math
 import os
 from collections import Counter
-from collections.abc import Iterator, Sequence
-from contextlib import contextmanager
-from contextvars import ContextVar
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import torch
@@ -33,7 +30,7 @@ FLOAT_BYTES = 4
 
 @dataclass(frozen=True)
 class BuildTarget:
-    """What the networks being built will train in and on (:func:`building_for`)."""
+    """What the networks being built will train in and on."""
 
     memory: int
     """Bytes (0: unknown, then nothing is refused)."""
@@ -43,8 +40,16 @@ class BuildTarget:
     """The run's ticks per update: an update holds at most about this many decision points (one
     per tick of each environment), so a joint head's rows are bounded by it."""
 
+    @classmethod
+    def for_training(cls, device: torch.device | str, *, batch_ticks: int) -> BuildTarget:
+        """A run's: ``device``'s memory (:func:`training_memory`) and its batch."""
+        memory, where = training_memory(device)
+        return cls(memory, where, batch_ticks)
 
-_TARGET: ContextVar[BuildTarget | None] = ContextVar("joint_head_target", default=None)
+    @classmethod
+    def this_machine(cls) -> BuildTarget:
+        """This machine's memory and one decision point: a policy built to act, not to train."""
+        return cls(machine_memory(), "this machine's")
 
 
 def joint_size(option_counts: Sequence[int]) -> int:
@@ -85,22 +90,6 @@ def training_memory(device: torch.device | str) -> tuple[int, str]:
     return gpu, f"the GPU's ({torch.cuda.get_device_name(device)})"
 
 
-@contextmanager
-def building_for(device: torch.device | str, *, batch_ticks: int = 1) -> Iterator[None]:
-    """Within it, joint heads are held to ``device``'s memory (:func:`build_target`)."""
-    memory, where = training_memory(device)
-    token = _TARGET.set(BuildTarget(memory, where, batch_ticks))
-    try:
-        yield
-    finally:
-        _TARGET.reset(token)
-
-
-def build_target() -> BuildTarget:
-    """What :func:`building_for` set, else this machine's memory and a batch of one row."""
-    return _TARGET.get() or BuildTarget(machine_memory(), "this machine's")
-
-
 def require_joint_head_fits(
     option_counts: Sequence[int],
     *,
@@ -109,15 +98,11 @@ def require_joint_head_fits(
     rows: int,
     who: str,
     instead: str,
-    memory: int | None = None,
+    target: BuildTarget,
 ) -> None:
     """Raise a :class:`ValueError` naming the joint size when the head would not fit in half of
-    ``memory`` (default: :func:`build_target`'s); ``who`` is the network, ``instead`` the way
-    out."""
-    where = "this machine's"
-    if memory is None:
-        target = build_target()
-        memory, where = target.memory, target.where
+    ``target``'s memory; ``who`` is the network, ``instead`` the way out."""
+    memory, where = target.memory, target.where
     need = joint_head_bytes(option_counts, hidden=hidden, copies=copies, rows=rows)
     if memory and need > memory // 2:
         gib = 2.0**30

@@ -26,7 +26,7 @@ from maopg.learner.checkpoint import load_checkpoint
 from maopg.learner.macdqn import MacDQN, MacDQNConfig, double_q_target, joint_q_network
 from maopg.learner.replay import SqueezedReplay, point_arrays
 from maopg.policy import JointQNetwork, ObsBatch, conditional_argmax, epsilon_greedy, ravel_joint
-from maopg.policy.joint_size import joint_head_bytes, require_joint_head_fits
+from maopg.policy.joint_size import BuildTarget, joint_head_bytes, require_joint_head_fits
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -361,16 +361,28 @@ def test_a_team_too_large_for_the_joint_q_is_refused_with_its_size() -> None:
     counts = (6,) * 7 + (8,)
     with pytest.raises(ValueError, match=r"6\^7·8 = 2,239,488 joint options.*async-ar"):
         require_joint_head_fits(
-            counts, hidden=128, copies=5, rows=192, who="q", instead="use async-ar", memory=4 << 30
+            counts,
+            hidden=128,
+            copies=5,
+            rows=192,
+            who="q",
+            instead="use async-ar",
+            target=BuildTarget(4 << 30, "this machine's"),
         )
     need = joint_head_bytes(counts, hidden=128, copies=5, rows=192)
     require_joint_head_fits(
-        counts, hidden=128, copies=5, rows=192, who="q", instead="-", memory=2 * need + 1
+        counts,
+        hidden=128,
+        copies=5,
+        rows=192,
+        who="q",
+        instead="-",
+        target=BuildTarget(2 * need + 1, "this machine's"),
     )
     # Through the method's builder on this machine's own memory: a 16-agent team cannot fit
     # anywhere (6^16 options), the paper's team builds.
-    config = MacDQNConfig()
+    config, machine = MacDQNConfig(), BuildTarget.this_machine()
     with pytest.raises(ValueError, match=r"mac-dqn's Q-network .* 6\^16 = 2,821,109,907,456"):
-        joint_q_network(_team_spec((6,) * 16), hidden=128, layers=2, config=config)
-    q = joint_q_network(_team_spec((3, 3, 6)), hidden=16, layers=1, config=config)
+        joint_q_network(_team_spec((6,) * 16), hidden=128, layers=2, config=config, target=machine)
+    q = joint_q_network(_team_spec((3, 3, 6)), hidden=16, layers=1, config=config, target=machine)
     assert q.head.out_features == 54

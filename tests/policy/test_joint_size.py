@@ -10,7 +10,7 @@ from maopg.experiment.train_cli import main
 from maopg.learner.mappo import PPOConfig, update_rows
 from maopg.policy import joint_size
 from maopg.policy.joint_size import (
-    building_for,
+    BuildTarget,
     joint_head_bytes,
     machine_memory,
     require_joint_head_fits,
@@ -39,29 +39,39 @@ def test_the_trainer_holds_heads_to_the_memory_of_the_device_it_builds_for(
     tmp_path, user_error, monkeypatch
 ):
     """The paper's Tool Delivery team (54 joint options) fits anywhere but on a device of a few
-    hundred kilobytes: the trainer builds for the run's device (``building_for``), whose memory
-    and name the refusal gives, not the machine's."""
+    hundred kilobytes: the trainer builds for the run's device (``BuildTarget.for_training``),
+    whose memory and name the refusal gives, not the machine's."""
     monkeypatch.setattr(joint_size, "machine_memory", lambda: 1024 * GIB)
     monkeypatch.setattr(joint_size, "training_memory", lambda device: (2**18, "the tiny device's"))
     run_dir = tmp_path / "run"
     argv = ["--total-samples", "100", "--run-dir", str(run_dir)]
     user_error(main, argv, r"3\^2·6 = 54 joint options.*half of the tiny device's 0 GiB")
     assert not run_dir.exists()
-    # outside a build the machine's memory is the limit again
-    require_joint_head_fits((3, 3, 6), hidden=128, copies=4, rows=600, who="p", instead="-")
+    # a policy built to act (loading a checkpoint) is held to the machine's memory
+    machine = BuildTarget.this_machine()
+    assert machine == BuildTarget(1024 * GIB, "this machine's", batch_ticks=1)
+    require_joint_head_fits(
+        (3, 3, 6), hidden=128, copies=4, rows=600, who="p", instead="-", target=machine
+    )
 
 
 def test_an_update_holds_rows_for_the_runs_batch():
-    """Within ``building_for``, the product categorical's estimate counts one batch of rows."""
-    assert update_rows(PPOConfig()) == 3  # outside a build: one row
-    with building_for("cpu", batch_ticks=200):
-        assert update_rows(PPOConfig()) == 600
-        assert update_rows(PPOConfig(num_minibatches=2)) == 300
+    """The product categorical's estimate counts one batch of the run's rows."""
+    run = BuildTarget.for_training("cpu", batch_ticks=200)
+    assert update_rows(PPOConfig(), BuildTarget.this_machine()) == 3  # to act: one row
+    assert update_rows(PPOConfig(), run) == 600
+    assert update_rows(PPOConfig(num_minibatches=2), run) == 300
     counts = (6,) * 7 + (8,)
     need = joint_head_bytes(counts, hidden=128, copies=4, rows=600)
-    with pytest.raises(ValueError, match=r"6\^7·8 = 2,239,488"):  # an explicit memory wins
+    with pytest.raises(ValueError, match=r"6\^7·8 = 2,239,488"):
         require_joint_head_fits(
-            counts, hidden=128, copies=4, rows=600, who="p", instead="-", memory=need
+            counts,
+            hidden=128,
+            copies=4,
+            rows=600,
+            who="p",
+            instead="-",
+            target=BuildTarget(need, "a small machine's"),
         )
 
 
