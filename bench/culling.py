@@ -21,7 +21,7 @@ from maopg.env import make_env
 from maopg.env.rollout import RandomPolicy, decision_points
 from maopg.experiment.sysinfo import markdown
 from maopg.sim.culling import cull_outside_view
-from maopg.sim.render import _make_renderer
+from maopg.sim.render import make_renderer
 
 TASKS = ("tool_delivery", "water_filling")
 
@@ -30,7 +30,7 @@ def measure(task: str, steps: int, size: int) -> dict[str, float]:
     env = make_env(task, seed=0)
     scene = env.task.scene
     cameras = [robot.camera_id for robot in env.task.agent_robots]
-    renderer = _make_renderer(scene.model, size, size, shadows=False, offsamples=0)
+    renderer = make_renderer(scene.model, size, size, shadows=False, offsamples=0)
     whole, culled, skipped, same = [], [], [], 0
     try:
         for _ in decision_points(env, RandomPolicy(env.spec, seed=0), steps):

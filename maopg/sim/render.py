@@ -51,9 +51,13 @@ def _fit_offscreen_buffer(model: mujoco.MjModel, height: int, width: int) -> Non
     glob.offheight = max(int(glob.offheight), height)
 
 
-def _make_renderer(
+def make_renderer(
     model: mujoco.MjModel, height: int, width: int, *, shadows: bool, offsamples: int
 ) -> mujoco.Renderer:
+    """A ``mujoco.Renderer`` of ``height`` × ``width`` frames for ``model`` (its offscreen
+    buffer enlarged to fit), with or without shadows and at ``offsamples`` multisamples (the
+    costs are in docs/DESIGN.md §2); a machine that cannot render is a one-line
+    :class:`RenderError` before GL is touched."""
     _fit_offscreen_buffer(model, height, width)
     failed = f"cannot render {width}x{height} frames with MUJOCO_GL={os.environ.get('MUJOCO_GL')}"
     problem = gl_problem()  # before GL is touched: a GLFW without a display warns, then fails
@@ -110,7 +114,7 @@ class CameraRenderer:
         self.height, self.width = height, width
         self._cull = fast  # a geom out of view may cast a shadow or a reflection into it
         offsamples = 0 if fast else int(model.vis.quality.offsamples)
-        self._renderer = _make_renderer(
+        self._renderer = make_renderer(
             model, height, width, shadows=not fast, offsamples=offsamples
         )
         _OPEN.add(self)

@@ -10,7 +10,7 @@ import pytest
 from maopg.env import make_env
 from maopg.env.rollout import RandomPolicy, decision_points
 from maopg.sim.culling import cull_outside_view
-from maopg.sim.render import CameraRenderer, _make_renderer
+from maopg.sim.render import CameraRenderer, make_renderer
 
 STEPS = 60
 """Decision points per task: both tasks' robots turn and cross their rooms in that many."""
@@ -22,7 +22,7 @@ def _frames_both_ways(task: str, height: int, width: int, aspect_error: float = 
     env = make_env(task, seed=3)
     scene = env.task.scene
     cameras = [robot.camera_id for robot in env.task.agent_robots]
-    renderer = _make_renderer(scene.model, height, width, shadows=False, offsamples=0)
+    renderer = make_renderer(scene.model, height, width, shadows=False, offsamples=0)
     whole, culled, counts = [], [], []
     try:
         for _ in decision_points(env, RandomPolicy(env.spec, seed=3), STEPS):
