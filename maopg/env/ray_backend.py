@@ -28,9 +28,9 @@ the actors, but the exchanges themselves travel over a TCP connection from this 
 actor (``ray.direct``, on by default; the actor checks a per-run key before it reads a pickle):
 one round trip and the answer's bytes. A Ray actor call instead goes through Ray's scheduling
 and object-store bookkeeping, which cost milliseconds per call on a small machine
-(``bench/backends.py`` measures both). An actor stepping ``k`` environments spreads the round
+(``bench/perf/backends.py`` measures both). An actor stepping ``k`` environments spreads the round
 trip over ``k`` environments' physics, so across machines give each actor as many environments
-as it takes for physics to dominate it (``bench/scale_out.py`` measures the terms;
+as it takes for physics to dominate it (``bench/perf/scale_out.py`` measures the terms;
 docs/DESIGN.md §9 works the numbers). A driver connected through Ray Client (``ray://``) may
 not reach the actors' machines, and uses actor calls.
 """

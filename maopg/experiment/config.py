@@ -59,7 +59,7 @@ GENERIC_DEFAULTS: dict[str, Any] = {
 
 WORKERS_PER_CORE = 2
 """The most worker processes per core that ``num_workers=0`` starts: enough for the operating
-system to even out uneven steps (``bench/lockstep.py``); each more holds its own MuJoCo models
+system to even out uneven steps (``bench/perf/lockstep.py``); each more holds its own MuJoCo models
 and GL context, so 32 environments do not start 32 processes."""
 
 
@@ -99,16 +99,16 @@ class TrainConfig(Settings):
     backend: str | None = None
     """Where the environments run: ``local`` (this process, one after another), ``threads``
     (this process, stepped in parallel while ``mj_step`` and rendering release the GIL;
-    ``bench/backends.py`` measures the gain), ``processes`` (``spawn`` workers) or ``ray``
+    ``bench/perf/backends.py`` measures the gain), ``processes`` (``spawn`` workers) or ``ray``
     (Ray actors, on this machine or a cluster: the ``ray.*`` settings); default
     ``processes`` when ``num_workers`` > 1, else the task's default: ``threads``, or
     ``processes`` for Water Filling, whose drone controller takes the GIL 25 times a tick
-    (``bench/backends.py``, ``bench/lockstep.py``). All give the same rollouts."""
+    (``bench/perf/backends.py``, ``bench/perf/lockstep.py``). All give the same rollouts."""
     num_workers: int = setting(0, ge=0)
     """Worker processes of the ``processes`` backend (0 = one per environment, at most
     :data:`WORKERS_PER_CORE` per core: the operating system then balances option steps of
     uneven length over the cores, where a worker stepping several environments in turn makes
-    the others wait; ``bench/lockstep.py``), actors of ``ray`` (0 = one), threads of
+    the others wait; ``bench/perf/lockstep.py``), actors of ``ray`` (0 = one), threads of
     ``threads`` (at least 2)."""
     ray: RayOptions = field(default_factory=RayOptions)
     """Where the ``ray`` backend's actors run (``ray.address=auto``; :class:`RayOptions`)."""
@@ -136,7 +136,7 @@ class TrainConfig(Settings):
     precision: str = setting("fp32", choices=tuple(PRECISIONS))
     """What the image encoders (the CNNs) compute in: ``fp32``, or ``bf16``, faster on a CPU
     with bf16 instructions (AVX512-BF16, AMX) and ``torch_threads=1`` or on a recent GPU, slower
-    elsewhere (``bench/precision.py``; :func:`~maopg.policy.encoders.set_precision` says why
+    elsewhere (``bench/perf/precision.py``; :func:`~maopg.policy.encoders.set_precision` says why
     only the CNNs). Deterministic on one machine either way, but a ``bf16`` run follows another
     trajectory than an ``fp32`` one. Runs without images compute the same in both."""
     torch_threads: int = setting(1, ge=0)

@@ -146,20 +146,21 @@ def _note(message: str) -> None:
 
 
 def _note_slow_bf16(config: TrainConfig) -> None:
-    """Say where ``precision=bf16`` makes the CNNs slower, not faster (bench/precision.py)."""
+    """Say where ``precision=bf16`` makes the CNNs slower, not faster (bench/perf/precision.py)."""
     if not (config.precision == "bf16" and config.images and config.device == "cpu"):
         return
     if torch.get_num_threads() > 1:
         _note(
             f"precision=bf16 with {torch.get_num_threads()} torch threads: the actor's and "
             "critic's updates, each on a thread of its own, then run several times slower than "
-            "in fp32 (bench/precision.py --torch-threads 2); torch_threads=1 is the fast setting"
+            "in fp32 (bench/perf/precision.py --torch-threads 2); torch_threads=1 is the fast "
+            "setting"
         )
     if not bf16_instructions():
         _note(
             "precision=bf16 on a CPU without bf16 instructions (none of "
             f"{', '.join(BF16_FLAGS)} in /proc/cpuinfo): its convolutions are emulated and "
-            "may run slower than in fp32 (bench/precision.py measures both)"
+            "may run slower than in fp32 (bench/perf/precision.py measures both)"
         )
 
 

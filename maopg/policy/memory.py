@@ -29,7 +29,7 @@ nothing of the options the continuing agents are bound to.
 before its cell and its output after it, while the state carried on stays the cell's own, as in
 rMAPPO, whose GRU reads the output of a LayerNorm and whose ``RNNLayer`` normalises what it
 returns. The encoders end in a ReLU with no normalisation: their features are large (norms of
-300–400 over 128 units in trained Water Filling policies, ``bench/memory_scale.py``), which
+300–400 over 128 units in trained Water Filling policies, ``bench/analysis/memory_scale.py``), which
 drive a GRU's sigmoid and tanh gates into saturation, where a step barely moves them; the
 outputs, bounded by the tanh, are small beside the features a feed-forward head reads, so the
 head's logits move little per update.

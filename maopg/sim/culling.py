@@ -4,7 +4,7 @@
 view only after it has transformed and lit all of its vertices. On a software renderer
 (Mesa's llvmpipe, what a headless CPU machine has) that per-vertex work is most of a small
 frame's cost, and a robot's camera sees few of the scene's geoms: of Water Filling's 66 about
-47 are out of a robot camera's view (``bench/culling.py`` prints both tasks'). A geom whose
+47 are out of a robot camera's view (``bench/perf/culling.py`` prints both tasks'). A geom whose
 bounding sphere lies wholly outside the view frustum cannot colour a pixel, so it is retyped
 ``mjGEOM_NONE``, which ``mjr_render`` skips;
 ``mjv_updateScene`` rewrites every geom before the next frame, so nothing has to be restored.
@@ -13,7 +13,7 @@ Only frames without shadows and reflections may be culled: a geom out of view ca
 a shadow into it or be mirrored by a reflective floor. The lights, fog, haze and skybox do
 not depend on the other geoms. The frames are the same to the last bit
 (``tests/sim/test_culling.py`` renders both ways over Tool Delivery's and Water Filling's
-episodes); ``bench/culling.py`` measures the time saved.
+episodes); ``bench/perf/culling.py`` measures the time saved.
 """
 
 from __future__ import annotations

@@ -340,7 +340,7 @@ def cost_to_go(blocked: np.ndarray, seeds: np.ndarray) -> np.ndarray:
     field to the bit (each cell's value is the least fixed point of ``min(neighbour + move)``,
     summed outward from the seeds, whatever order finds it). The relaxation's cost grows with
     the cells times the longest path, Dijkstra's with the cells, after scipy's import (which a
-    small room is spared); ``python bench/wf_teams.py`` times both per room size.
+    small room is spared); ``python bench/perf/wf_teams.py`` times both per room size.
     """
     if blocked.size <= RELAXATION_CELLS:
         return relaxed_cost_to_go(blocked, seeds)

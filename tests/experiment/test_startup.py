@@ -1,4 +1,4 @@
-"""Start-up costs a short run must not pay (``bench/startup.py`` measures them): a training
+"""Start-up costs a short run must not pay (``bench/perf/startup.py`` measures them): a training
 process with ``plot=false video=false`` imports neither torch's compiler (``torch._dynamo``,
 ~1 s: :mod:`maopg.learner.adam`) nor sympy (~0.3 s: :func:`maopg.policy.unravel_joint`) nor
 matplotlib (~0.3 s), and the replacements compute what torch's own functions do."""

@@ -29,7 +29,7 @@ LARGEST = [(6, 1, 2), (6, 2, 4)]
 """The largest team of each arena: its waypoints and furniture include every smaller team's."""
 ALL_MAX_TICKS = 300
 """Sync-wait (``all``) runs rounds as long as the slowest option; with two humans per Fetch the
-scripted policy needs ~200 ticks there (``python bench/td_teams.py`` prints them)."""
+scripted policy needs ~200 ticks there (``python bench/perf/td_teams.py`` prints them)."""
 
 
 def team_settings(size: tuple[int, int, int]) -> dict[str, int]:

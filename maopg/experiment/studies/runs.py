@@ -330,8 +330,8 @@ def final_iterations(
 ) -> np.ndarray:
     """The iterations :func:`final` averages, as a mask over the run's rows: those in the last
     ``fraction`` of its samples that reported ``metric``. A measurement built on the final
-    figure that needs more of those rows (``bench/target_odds.py``: the episodes each ended)
-    reads the very same ones."""
+    figure that needs more of those rows (``bench/analysis/target_odds.py``: the episodes each
+    ended) reads the very same ones."""
     if not run.samples.size:
         return np.zeros(0, dtype=bool)
     in_tail = run.samples > run.samples[-1] * (1.0 - fraction)

@@ -71,7 +71,7 @@ class DroneAdapter(base.DroneAdapter):
 
     Constants = DroneConstants
     #: 50 Hz keeps the Python cascade's cost below a fifth of the physics it rides on
-    #: (bench/wf_bench.py); the attitude PD is still well damped at that rate.
+    #: (bench/perf/wf_bench.py); the attitude PD is still well damped at that rate.
     control_hz: ClassVar[float | None] = 50.0
 
     def __init__(

@@ -14,7 +14,7 @@ register_task(
     # The paper's batch size in low-level samples and its image observations.
     # Environments in worker processes, one each: faster than threads here, where the drone's
     # 50 Hz Python controller takes the GIL and option steps vary in length (measured by
-    # bench/lockstep.py).
+    # bench/perf/lockstep.py).
     train_defaults={
         "batch_ticks": 2000,
         "total_samples": 200_000,

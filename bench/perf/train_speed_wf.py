@@ -1,6 +1,6 @@
 """Wall-clock of training on Water Filling from RGB: 200K samples of `async` in ≤ 15 min?
 
-Run: ``.venv/bin/python bench/train_speed_wf.py [--precision bf16] [--workers 4] [--seed 1]
+Run: ``.venv/bin/python bench/perf/train_speed_wf.py [--precision bf16] [--workers 4] [--seed 1]
 [--run-dir DIR]``. Target (issue 16): 200K samples of `async` (64 px cameras on both robots,
 command-line defaults but ``precision`` and the backend) in ≤ 15 minutes on 2 cores, with a
 learning curve within the noise of the committed grid's (results/runs/water_filling/async, seeds
@@ -19,7 +19,7 @@ and the policy makes more decisions as it learns (about 350-400 per 1,000 ticks 
 timed by its own ``metrics.csv``, into a run directory that a rerun resumes (and a finished one
 only reports): it spans sessions if it must. The machine's load is sampled every 10 s while it
 trains and printed with the figure. The grid's runs were timed on other machines and loads;
-the like-for-like old-vs-new rate on this machine is ``bench/compare_checkouts.py --sections
+the like-for-like old-vs-new rate on this machine is ``bench/perf/compare_checkouts.py --sections
 train`` (its ``wf-rgb`` row).
 """
 
@@ -120,7 +120,7 @@ def main() -> None:
     loads = json.loads((args.run_dir / LOADS).read_text())
     minutes = run.metrics["wall_time"][-1] / 60
 
-    print("### Training wall-clock, Water Filling RGB (`bench/train_speed_wf.py`)\n")
+    print("### Training wall-clock, Water Filling RGB (`bench/perf/train_speed_wf.py`)\n")
     print(conditions)
     print(
         f"- load average (1 min) while training, sampled every 10 s: median "

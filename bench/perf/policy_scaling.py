@@ -1,6 +1,6 @@
 """Cost of one decision point's policy step as the team grows: product categorical vs chain rule.
 
-Run: ``.venv/bin/python bench/policy_scaling.py [--agents 2,3,4,6,8,12,16] [--options 6,13]``.
+Run: ``.venv/bin/python bench/perf/policy_scaling.py [--agents 2,3,4,6,8,12,16] [--options 6,13]``.
 Prints a Markdown table and the conditions (machine, versions, load).
 
 For each team of ``N`` agents with ``K`` options each, one training step of the policy on a
@@ -112,7 +112,7 @@ def main() -> None:
 
     torch.set_num_threads(1)  # what every cell runs with, so the conditions print it
     print("### Policy cost against team size: product categorical vs autoregressive")
-    print("(`bench/policy_scaling.py`)\n")
+    print("(`bench/perf/policy_scaling.py`)\n")
     print(markdown(gl=False))
     print(
         f"\nOne policy step (forward, sample, log-prob + entropy, backward) on {args.batch} "

@@ -16,10 +16,11 @@ asks of a trained policy, next to what the reference policy scores. The draws ta
 reference's episodes as its distribution of returns; the standard error of their mean, printed
 with it, is what that leaves out.
 
-Run: ``.venv/bin/python bench/target_odds.py EVAL_JSON DIR[,DIR...] --target R [--draws N]``,
-where ``EVAL_JSON`` is written by ``python -m eval evaluate --reference ... --json EVAL_JSON``
-(fresh episodes: a ``--seed`` the runs' targets were not read on) and the run directories
-give the episodes each final iteration ended (every run directory under those folders).
+Run: ``.venv/bin/python bench/analysis/target_odds.py EVAL_JSON DIR[,DIR...] --target R
+[--draws N]``, where ``EVAL_JSON`` is written by ``python -m eval evaluate --reference ...
+--json EVAL_JSON`` (fresh episodes: a ``--seed`` the runs' targets were not read on) and the
+run directories give the episodes each final iteration ended (every run directory under those
+folders).
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Collection throughput of the vector-environment backends, side by side in one run.
 
-Run: ``.venv/bin/python bench/backends.py [--steps N] [--rounds R]``. Prints a Markdown block
+Run: ``.venv/bin/python bench/perf/backends.py [--steps N] [--rounds R]``. Prints a Markdown block
 for BENCHMARKS.md. Each backend steps 4 environments with the uniform-random reference policy
 (the policy's cost is the same for all, and small) for ``--steps`` lockstep option steps; the
 backends alternate within each of ``--rounds`` rounds so a change in machine load hits them
@@ -11,7 +11,7 @@ tick counts of every step). Figures are low-level ticks per second, median over 
 (``mj_step`` and rendering release the GIL), ``processes`` in 2 ``spawn``ed workers
 (observations cross a pipe), ``processes×4`` in 4, one per environment (Water Filling's
 default backend: the operating system evens out option steps of uneven length over the cores,
-``bench/lockstep.py``), ``ray`` in 2 Ray actors of a local Ray instance started once for
+``bench/perf/lockstep.py``), ``ray`` in 2 Ray actors of a local Ray instance started once for
 the whole benchmark (observations cross each actor's TCP connection, ``ray.direct``), and
 ``ray×1`` in one actor holding all 4 environments: it steps them one after another like
 ``local``, so its ratio to ``local`` is the Ray backend's own overhead at the same number of
@@ -96,7 +96,7 @@ def main() -> None:
             same &= all(t == traces[0] for t in traces)
         medians = {c: statistics.median(v) for c, v in rates.items()}
         rows.append((task, "RGB" if images else "state", medians, same))
-    print("### Vector-environment backends (`bench/backends.py`)\n")
+    print("### Vector-environment backends (`bench/perf/backends.py`)\n")
     print(conditions)
     print(
         f"- 4 environments, {args.steps} option steps, {args.rounds} rounds; 2 threads, "

@@ -1,7 +1,7 @@
 """Water Filling benchmark: ticks/s of the task with RGB observations for both robots, next to
 bare physics plus bare rendering of the same frames, measured in the same run.
 
-Run: ``.venv/bin/python bench/wf_bench.py``. Prints a Markdown block for BENCHMARKS.md.
+Run: ``.venv/bin/python bench/perf/wf_bench.py``. Prints a Markdown block for BENCHMARKS.md.
 
 For each setting the task runs ``--ticks`` ticks (episodes of 300) with 64 px images; the
 frames it rendered are counted (the cameras of the choosing agents at every decision point).
@@ -94,7 +94,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--ticks", type=int, default=1200)
     parser.add_argument("--size", type=int, default=64)
     args = parser.parse_args(argv)
-    print("### Water Filling task (`bench/wf_bench.py`)\n")
+    print("### Water Filling task (`bench/perf/wf_bench.py`)\n")
     print(markdown() + "\n")
     print(
         f"{args.size} px RGB observations for both robots (rendered for the choosing robots at "

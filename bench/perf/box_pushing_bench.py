@@ -1,15 +1,15 @@
 """Box Pushing (MuJoCo) throughput: the option environment against the simulator floor.
 
-Run: ``.venv/bin/python bench/box_pushing_bench.py [--episodes N] [--size 6]``. Prints its
+Run: ``.venv/bin/python bench/perf/box_pushing_bench.py [--episodes N] [--size 6]``. Prints its
 conditions and a Markdown table. Both sides are measured in the same run on the same compiled
-model, as ``bench/td_bench.py`` does for Tool Delivery:
+model, as ``bench/perf/td_bench.py`` does for Tool Delivery:
 
 - *env*: ``OptionEnv`` with the uniform-random reference policy, strategy ``continue`` — every
   tick's options, route planning, push judging, deliveries and observations included; ticks/s
   of low-level time (one tick = 1 s = 100 physics steps of 10 ms). Its ``Scene.advance`` (the
   physics of the episodes it plays, whose contacts — robots against boxes, walls and each
   other — cost more than an idle scene's) is timed on its own.
-- *floor*: ``bench/td_bench.py``'s bare physics, ``mj_step(nstep=steps per tick)`` on a fresh
+- *floor*: ``bench/perf/td_bench.py``'s bare physics, ``mj_step(nstep=steps per tick)`` on a fresh
   ``MjData`` of the same model (the robots idle, the boxes resting: 12 floor contacts), for the
   same number of ticks; with RGB, plus rendering exactly as many camera frames (same size,
   same fast renderer settings) as the environment rendered.
@@ -64,7 +64,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--repeats", type=int, default=3, help="alternating env/floor rounds")
     parser.add_argument("--size", type=int, default=6, help="arena side in cells")
     args = parser.parse_args(argv)
-    print("### Box Pushing (MuJoCo) throughput (`bench/box_pushing_bench.py`)\n")
+    print("### Box Pushing (MuJoCo) throughput (`bench/perf/box_pushing_bench.py`)\n")
     print(markdown() + "\n")
     print(
         f"- {args.size}x{args.size} cells, 2 Turtlebots, {args.episodes} uniform-random episodes "

@@ -1,6 +1,7 @@
 """Mac-DQN vs async on Tool Delivery (the paper's Table I): samples to threshold and peak.
 
-Run: ``.venv/bin/python bench/macdqn_vs_async.py [--runs results/runs] [--seeds 0 1 2 3 4]``.
+Run: ``.venv/bin/python bench/analysis/macdqn_vs_async.py [--runs results/runs]
+[--seeds 0 1 2 3 4]``.
 Brings both methods' runs to completion through the reproduction grid's runner (finished runs
 are read, unfinished ones resume; both get the same budget in low-level samples) and prints the
 peak and samples-to-threshold tables the results use. The threshold is the one used for async
@@ -32,7 +33,7 @@ def main() -> None:
     runs = [
         r for r in discover_runs([args.runs / TASK]) if r.method in METHODS and r.seed in args.seeds
     ]
-    print("### Mac-DQN vs async on Tool Delivery (`bench/macdqn_vs_async.py`)\n")
+    print("### Mac-DQN vs async on Tool Delivery (`bench/analysis/macdqn_vs_async.py`)\n")
     print(markdown(gl=False))
     print(f"- seeds {args.seeds}, runs in `{args.runs}/{TASK}/`, window {args.window}\n")
     print(peak_table(runs, window=args.window, methods=METHODS))

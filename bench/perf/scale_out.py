@@ -1,7 +1,7 @@
 """Scale-out on paper: what N Ray actors on N machines would collect, and where the learner
 becomes the bottleneck — a short model whose inputs are measured here.
 
-Run: ``.venv/bin/python bench/scale_out.py [--task tool_delivery] [--rtt-ms 0.5] [--gbit 1]``.
+Run: ``.venv/bin/python bench/perf/scale_out.py [--task tool_delivery] [--rtt-ms 0.5] [--gbit 1]``.
 Prints a Markdown block for BENCHMARKS.md.
 
 Measured on this machine (medians over ``--rounds``):
@@ -155,7 +155,7 @@ def main() -> None:
         return delta[1] + (delta[4] - delta[1]) * (k - 1) / 3
 
     rtt, bandwidth = args.rtt_ms / 1000, args.gbit * 1e9 / 8
-    print(f"### Scale-out model, {args.task} RGB (`bench/scale_out.py`)\n")
+    print(f"### Scale-out model, {args.task} RGB (`bench/perf/scale_out.py`)\n")
     print(conditions)
     print(
         f"- measured: t_env = {t_env * 1000:.2f} ms per environment-step, d = "

@@ -2,7 +2,7 @@
 moved the policy, whether two groups' final returns differ beyond their seeds' noise, and how
 often a run sat at one return.
 
-Run: ``.venv/bin/python bench/run_stats.py LABEL=DIR[,DIR...] ... [--last 10] [--at -150]
+Run: ``.venv/bin/python bench/analysis/run_stats.py LABEL=DIR[,DIR...] ... [--last 10] [--at -150]
 [--blocks 10]``.
 Each ``LABEL=DIR,...`` is a group: every run directory under those folders (finished or not).
 Prints a Markdown table per group and seed, then each group's mean ± std over seeds:

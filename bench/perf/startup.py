@@ -1,14 +1,14 @@
 """Fixed start-up costs, old vs new checkout side by side: the wall-clock of
 ``import maopg.experiment.trainer`` and of a short Tool Delivery training command.
 
-Run: ``.venv/bin/python bench/startup.py [--ref 4e53a18] [--rounds N]``. Prints a Markdown block
-for BENCHMARKS.md (progress goes to stderr).
+Run: ``.venv/bin/python bench/perf/startup.py [--ref 4e53a18] [--rounds N]``. Prints a
+Markdown block for BENCHMARKS.md (progress goes to stderr).
 
 A short run is mostly start-up: importing torch and MuJoCo, building the environments and the
 networks, and after training the learning-curve plot. Every test and smoke run pays it, so this
 measures it as a user sees it: each figure is the wall-clock of a fresh interpreter running the
 command, from process start to exit. The checkouts and the alternation are
-``bench/compare_checkouts.py``'s (old = ``git archive REF``, new = a snapshot of the working
+``bench/perf/compare_checkouts.py``'s (old = ``git archive REF``, new = a snapshot of the working
 tree; old first in odd rounds, new first in even ones, every run a fresh subprocess whose
 ``maopg`` imports are checked to come from its own checkout), so are the verdicts (*noise* when
 the old and new min–max ranges overlap). One untimed import per side first compiles its
@@ -124,7 +124,7 @@ def main() -> int:
                             figures["train, plot=false", clock].cells["old"].append(cell)
     elapsed = time.perf_counter() - started
 
-    print("### Start-up of a short run, old vs new (`bench/startup.py`)\n")
+    print("### Start-up of a short run, old vs new (`bench/perf/startup.py`)\n")
     print(conditions)
     print(f"- load average (1 min) before each run: {min(loads):.2f}–{max(loads):.2f}")
     print(f"- load average (1 min) at end: {os.getloadavg()[0]:.2f}")

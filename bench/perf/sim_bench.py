@@ -1,6 +1,6 @@
 """Simulation-core benchmark: physics rate, option-layer overhead and camera cost per scene.
 
-Run: ``.venv/bin/python bench/sim_bench.py``. Prints a Markdown block for BENCHMARKS.md.
+Run: ``.venv/bin/python bench/perf/sim_bench.py``. Prints a Markdown block for BENCHMARKS.md.
 Scenes: Tool Delivery (Fetch + 2 Turtlebots) and, when its arena and robots exist, Water
 Filling (vehicle + drone + 3 jars). Renders use one reused renderer over every robot camera.
 """
@@ -124,7 +124,7 @@ def main() -> int:
     wf = water_filling()
     if wf is not None:
         scenes["Water Filling"] = wf
-    print("### Simulation core (`bench/sim_bench.py`)\n")
+    print("### Simulation core (`bench/perf/sim_bench.py`)\n")
     print(markdown() + "\n")
     print(
         "| scene | bodies/geoms/actuators | timestep | tick | mj_step (µs) | steps/s "

@@ -1,6 +1,6 @@
 """Tool Delivery at several team sizes: the scripted and the uniform-random reference returns.
 
-Run: ``.venv/bin/python bench/td_teams.py [--episodes N]``. Prints a Markdown block for
+Run: ``.venv/bin/python bench/perf/td_teams.py [--episodes N]``. Prints a Markdown block for
 BENCHMARKS.md: per team (turtlebots, fetches, humans) the number of agents and of joint
 options, the scripted policy's return and ticks under each strategy (the task is deterministic,
 so one episode is every episode), and the random policy's mean ± std return and solved share
@@ -88,7 +88,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--episodes", type=int, default=8)
     args = parser.parse_args()
-    print("### Tool Delivery team sizes (`bench/td_teams.py`)\n")
+    print("### Tool Delivery team sizes (`bench/perf/td_teams.py`)\n")
     print(markdown())
     print(
         f"- scripted: one episode per strategy (deterministic), return (ticks); random: "

@@ -1,6 +1,6 @@
 """Observation frames drawn whole and culled to the camera's view: time per frame, same pixels?
 
-Run: ``.venv/bin/python bench/culling.py [--steps 300] [--size 64]``. Prints a Markdown block
+Run: ``.venv/bin/python bench/perf/culling.py [--steps 300] [--size 64]``. Prints a Markdown block
 for BENCHMARKS.md. Each task steps one environment under the uniform-random policy; at every
 decision point each robot camera is drawn twice with one renderer of the observation settings
 (no shadows, reflections or multisampling), whole and after
@@ -64,7 +64,7 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=300, help="decision points per task")
     parser.add_argument("--size", type=int, default=64, help="frame side (px)")
     args = parser.parse_args()
-    print("### Observation frames culled to the view (`bench/culling.py`)\n")
+    print("### Observation frames culled to the view (`bench/perf/culling.py`)\n")
     print(markdown())
     print(f"- {args.steps} decision points per task, uniform-random options, {args.size} px\n")
     print(

@@ -1,6 +1,6 @@
 """What lockstep costs when option steps are uneven: why Water Filling runs one process per env.
 
-Run: ``.venv/bin/python bench/lockstep.py [--checkpoint PATH] [--envs 4] [--steps 400]``.
+Run: ``.venv/bin/python bench/perf/lockstep.py [--checkpoint PATH] [--envs 4] [--steps 400]``.
 
 A vector step advances every environment to its own next decision point, which may be one tick
 away or ten. A worker holding several environments steps them one after another and the step
@@ -12,7 +12,7 @@ would take with the environments split over W workers on this machine's cores: t
 worker's share, but at least the whole step's work spread over the cores (the operating system
 shares the cores between more workers than cores). It prints that total against the ideal (all
 work spread evenly over the cores, every step). A model from measured times, not a training
-run: ``bench/train_speed_wf.py`` gives the verdict on the wall-clock of a whole run.
+run: ``bench/perf/train_speed_wf.py`` gives the verdict on the wall-clock of a whole run.
 """
 
 from __future__ import annotations
@@ -69,7 +69,7 @@ def main() -> None:
     seconds, ticks = step_times(args.checkpoint, args.envs, args.steps)
     ideal = seconds.sum() / cores
 
-    print("### Lockstep over uneven option steps (`bench/lockstep.py`)\n")
+    print("### Lockstep over uneven option steps (`bench/perf/lockstep.py`)\n")
     print(conditions)
     print(f"- policy: `{args.checkpoint}`, sampled; {args.envs} environments × {args.steps} steps")
     print(

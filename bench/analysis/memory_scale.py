@@ -1,10 +1,10 @@
 """What a recurrent policy's GRU reads and returns: the scale of its inputs, how saturated its
 gates are, and the scale of what its head reads, beside a feed-forward policy's head input.
 
-Run: ``.venv/bin/python bench/memory_scale.py [CHECKPOINT ...] [--episodes 1]`` (default: seed 0
-of feed-forward ``async`` and of recurrent ``async``: without option history or normalisation
-(``results/memory/unnormalised``), with the option history only (a pilot), and with both (the
-``memory`` study's runs)). The two middle ones are in the history, not the tree:
+Run: ``.venv/bin/python bench/analysis/memory_scale.py [CHECKPOINT ...] [--episodes 1]``
+(default: seed 0 of feed-forward ``async`` and of recurrent ``async``: without option history
+or normalisation (``results/memory/unnormalised``), with the option history only (a pilot),
+and with both (the ``memory`` study's runs)). The two middle ones are in the history, not the tree:
 ``git checkout 3d01192 -- results/memory/unnormalised results/memory/pilots`` restores them.
 
 Our encoders end in a ReLU with no normalisation, so their features can be large. A GRU cell's
@@ -121,7 +121,8 @@ def main() -> None:
     if missing:
         parser.error(f"no such checkpoint {missing[0]} (the module docstring says how to restore)")
     torch.set_num_threads(1)
-    print("### What a recurrent policy's GRU reads and returns (`bench/memory_scale.py`)\n")
+    title = "What a recurrent policy's GRU reads and returns"
+    print(f"### {title} (`bench/analysis/memory_scale.py`)\n")
     print(markdown())
     print(
         f"- each checkpoint's policy, sampled, {args.episodes} episodes (reset seeds 0, 1, ...)\n"

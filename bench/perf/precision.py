@@ -1,6 +1,7 @@
 """What ``precision=bf16`` saves: the CNN alone, and the PPO update on a real Water Filling batch.
 
-Run: ``.venv/bin/python bench/precision.py [--run runs/bench/train_speed_wf_bf16] [--rounds 3]``.
+Run: ``.venv/bin/python bench/perf/precision.py [--run runs/bench/train_speed_wf_bf16]
+[--rounds 3]``.
 Prints a Markdown block for BENCHMARKS.md.
 
 1. The NatureCNN of the encoders, forward and backward over ``--images`` 64 px images (the
@@ -8,11 +9,11 @@ Prints a Markdown block for BENCHMARKS.md.
    ``bf16``.
 2. One PPO update (the default 10 epochs, actor and critic) of `async` from RGB on one batch of
    Water Filling's 2,000 ticks, collected once by the policy and critic of ``--run``'s
-   checkpoint (a run of `async` from RGB at the default settings, as ``bench/train_speed_wf.py``
-   trains) (a trained policy decides more often, so its batch holds more decision points
-   and images than an untrained one's; without ``--run``, the untrained networks). Both
-   precisions start from the same weights and optimiser state and update on the same batch,
-   so the table also shows how far their losses move apart.
+   checkpoint (a run of `async` from RGB at the default settings, as
+   ``bench/perf/train_speed_wf.py`` trains) (a trained policy decides more often, so its batch
+   holds more decision points and images than an untrained one's; without ``--run``, the
+   untrained networks). Both precisions start from the same weights and optimiser state and
+   update on the same batch, so the table also shows how far their losses move apart.
 
 The precisions alternate within each of ``--rounds`` rounds, so a change in the machine's load
 hits both alike; figures are medians. The conditions list whether this CPU has bf16
@@ -114,7 +115,7 @@ def main() -> None:
     conditions = markdown()
     cnn = cnn_seconds(args.images, args.rounds)
     update, stats, points, distinct = update_seconds(args.run, args.rounds)
-    print("### `precision=bf16` against `fp32` (`bench/precision.py`)\n")
+    print("### `precision=bf16` against `fp32` (`bench/perf/precision.py`)\n")
     print(conditions)
     networks = f"the checkpoint of `{args.run}`" if args.run else "untrained networks"
     print(

@@ -1,13 +1,13 @@
 """Training-loop throughput: samples per second of ``python -m train`` with its defaults.
 
-Run: ``.venv/bin/python bench/train_rate.py [--cases td-rgb,wf-rgb]``. Prints a Markdown table.
+Run: ``.venv/bin/python bench/perf/train_rate.py [--cases td-rgb,wf-rgb]``. Prints a Markdown table.
 Each case trains ``async`` from RGB cameras through the command line, exactly as a user would
 (default backend, batch size and network; ``video=false``), in a scratch run directory, and
 reads the rate from the run's own ``metrics.csv``: samples over wall-clock of every iteration
 but the first (warm-up: lazy imports, first renders, allocator growth).
 
 The script uses nothing but the command line and ``metrics.csv``, which every version of the
-project has, so ``bench/compare_checkouts.py --sections train`` runs *this* script against an
+project has, so ``bench/perf/compare_checkouts.py --sections train`` runs *this* script against an
 old checkout and the new tree alike (issue 16's "≥ 2× today's" is read from that comparison).
 """
 

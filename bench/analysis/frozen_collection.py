@@ -1,6 +1,7 @@
 """Does a training curve lag its policy, or does collection play worse than evaluation?
 
-Run: ``.venv/bin/python bench/frozen_collection.py RUN_DIR [RUN_DIR ...] [--iterations 15]``
+Run: ``.venv/bin/python bench/analysis/frozen_collection.py RUN_DIR [RUN_DIR ...]
+[--iterations 15]``
 
 A run's curve is the mean return of the episodes that ended in each iteration, played by the
 sampled policy of that iteration inside training's collection: vector environments whose

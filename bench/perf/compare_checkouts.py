@@ -1,6 +1,6 @@
 """Old vs new checkout: simulation-core, Tool Delivery and training-loop throughput, side by side.
 
-Run: ``.venv/bin/python bench/compare_checkouts.py [--ref 0c4d129] [--rounds N] [--sections
+Run: ``.venv/bin/python bench/perf/compare_checkouts.py [--ref 0c4d129] [--rounds N] [--sections
 sim,td,train]``. Prints a Markdown block for BENCHMARKS.md (progress goes to stderr).
 
 Why this exists: a redesign must not make the simulation core or the Tool Delivery environment
@@ -19,8 +19,9 @@ the noise is.
   the same temporary folder at the start, so every round measures the same code even while the
   tree is being edited.
 
-Each side runs its *own* ``bench/sim_bench.py`` and ``bench/td_bench.py`` (the ``train`` section:
-the new tree's ``bench/train_rate.py``, which drives only the ``python -m train`` command line
+Each side runs its *own* ``bench/perf/sim_bench.py`` and ``bench/perf/td_bench.py`` (the
+``train`` section:
+the new tree's ``bench/perf/train_rate.py``, which drives only the ``python -m train`` command line
 that every version has) with the same Python
 (``sys.executable``), ``PYTHONPATH=<checkout>`` and the temporary folder as working directory,
 so ``import maopg`` resolves to that checkout and not to the editable install of the repository
@@ -50,7 +51,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(REPO))  # this tree's sysinfo helper, whatever maopg is installed
 
 from maopg.experiment.sysinfo import markdown  # noqa: E402
@@ -288,7 +289,7 @@ def run_script(
     checkout: Checkout, script: Path, args: tuple[str, ...], others: list[Path], cwd: Path
 ) -> str:
     """Run ``script args`` with ``maopg`` imported from ``checkout`` (checked: no module from
-    ``others``); return its stdout. ``bench/startup.py`` times these runs."""
+    ``others``); return its stdout. ``bench/perf/startup.py`` times these runs."""
     env = {**os.environ, "PYTHONPATH": str(checkout.root)}
     command = [sys.executable, "-c", RUNNER, str(checkout.root), str(script), *args]
     done = subprocess.run(command, cwd=cwd, env=env, capture_output=True, text=True, timeout=3600)
@@ -325,7 +326,7 @@ def main() -> int:
         "--sections",
         default="sim,td,train",
         help="comma-separated, of sim (simulation core), td (Tool Delivery environment), "
-        "train (training loop, bench/train_rate.py); default: %(default)s",
+        "train (training loop, bench/perf/train_rate.py); default: %(default)s",
     )
     args = parser.parse_args()
     if args.rounds < 2:
@@ -366,7 +367,7 @@ def main() -> int:
 
     n = args.rounds
     chance = 2 / math.comb(2 * n, n)
-    print("### Old vs new checkout, side by side (`bench/compare_checkouts.py`)\n")
+    print("### Old vs new checkout, side by side (`bench/perf/compare_checkouts.py`)\n")
     print(conditions)
     print(f"- load average (1 min) before each run: {min(loads):.2f}–{max(loads):.2f}")
     print(f"- load average (1 min) at end: {os.getloadavg()[0]:.2f}")

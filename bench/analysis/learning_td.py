@@ -1,6 +1,6 @@
 """Sample efficiency of `async` on Tool Delivery (state observations) over seeds.
 
-Run: ``.venv/bin/python bench/learning_td.py [--runs results/runs] [--seeds 0 1 2 3 4]``.
+Run: ``.venv/bin/python bench/analysis/learning_td.py [--runs results/runs] [--seeds 0 1 2 3 4]``.
 Brings each seed's run to completion with the reproduction grid's runner (a finished run is
 read, not retrained; an unfinished one resumes), then prints per seed: the low-level samples at
 which the trailing mean episode return first reaches the threshold, the final return, the
@@ -33,7 +33,7 @@ def main() -> None:
     args = parser.parse_args()
 
     run_grid(args.runs, tasks=[TASK], methods=[METHOD], seeds=args.seeds, log=log_to_stderr)
-    print("### `async` on Tool Delivery, state observations (`bench/learning_td.py`)\n")
+    print("### `async` on Tool Delivery, state observations (`bench/analysis/learning_td.py`)\n")
     print(markdown(gl=False))
     print(
         f"- threshold {args.threshold:g} on the trailing mean of {args.window} iterations' "

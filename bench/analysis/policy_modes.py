@@ -1,7 +1,7 @@
 """How sure a trained policy is of its own choices: why a greedy policy loops where the sampled
 one does not.
 
-Run: ``.venv/bin/python bench/policy_modes.py [CHECKPOINT ...] [--episodes 2] [--sample]``
+Run: ``.venv/bin/python bench/analysis/policy_modes.py [CHECKPOINT ...] [--episodes 2] [--sample]``
 (default: seed 0 of each Water Filling method of the grid, of the ``memory`` study and of its
 unnormalised runs).
 
@@ -101,7 +101,7 @@ def main() -> None:
     parser.add_argument("--sample", action="store_true", help="sample, not the mode")
     args = parser.parse_args()
     torch.set_num_threads(1)
-    print("### How sure trained policies are of their choices (`bench/policy_modes.py`)\n")
+    print("### How sure trained policies are of their choices (`bench/analysis/policy_modes.py`)\n")
     print(markdown())
     acting = "sampled" if args.sample else "greedy (the mode)"
     print(

@@ -1,6 +1,6 @@
 """Tool Delivery throughput: the option environment against bare physics (and rendering).
 
-Run: ``.venv/bin/python bench/td_bench.py [--episodes N]``. Prints a Markdown block for
+Run: ``.venv/bin/python bench/perf/td_bench.py [--episodes N]``. Prints a Markdown block for
 BENCHMARKS.md. Both sides are measured in the same run on the same compiled model:
 
 - *env*: ``OptionEnv`` with the uniform-random reference policy, ``continue`` strategy — every
@@ -74,7 +74,7 @@ def main() -> None:
     parser.add_argument("--episodes", type=int, default=40)
     parser.add_argument("--repeats", type=int, default=3, help="alternating env/bare rounds")
     args = parser.parse_args()
-    print("### Tool Delivery throughput (`bench/td_bench.py`)\n")
+    print("### Tool Delivery throughput (`bench/perf/td_bench.py`)\n")
     print(markdown())
     print(
         f"- {args.episodes} uniform-random episodes per round, strategy `continue`, 64 px "

@@ -1,7 +1,7 @@
 """Water Filling at several team sizes: the room each gets, what building it costs, the speed of
 an episode, camera frames in the bigger rooms, and the scripted and random returns.
 
-Run: ``.venv/bin/python bench/wf_teams.py [--episodes 5]``. Prints a Markdown block for
+Run: ``.venv/bin/python bench/perf/wf_teams.py [--episodes 5]``. Prints a Markdown block for
 BENCHMARKS.md.
 
 Per size (vehicles, drones, jars): the tiles of the room and its planning grid; the build time
@@ -69,7 +69,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--episodes", type=int, default=5)
     args = parser.parse_args(argv)
-    print("### Water Filling team sizes (`bench/wf_teams.py`)\n")
+    print("### Water Filling team sizes (`bench/perf/wf_teams.py`)\n")
     print(markdown() + "\n")
     print(
         f"Episodes of 300 ticks under `continue`, seeds 0..{args.episodes - 1}, state vectors; "
