@@ -13,6 +13,9 @@ Each study answers one question and keeps its runs and results in a folder of it
 studies pool their runs. Within a study a task appears once: runs are grouped by task
 (``<runs>/<task>/<method>/seed<seed>``), and so are its curves and tables.
 
+A study that sets its runs beside the literature's published curves names them in ``published``:
+its tables read the runs' evaluations during training as the literature reads its own.
+
 A study whose question is "how close to the scripted heuristic" sets ``normalised``: its tables
 add each method's final return as the normalised score ``(R − R_random) / (R_scripted −
 R_random)`` against the reference policies measured at the study's own task settings.
@@ -71,6 +74,11 @@ class Study:
     """Methods whose finished runs of the ``paper`` study join this study's figures and tables
     (read, never trained here): the committed grid a variant is compared with. Only for tasks
     at their default settings, where the paper's runs are the same experiment."""
+    published: str | None = None
+    """The published Box Pushing curves (a key of
+    :data:`~maopg.experiment.studies.published.PUBLISHED`: ``bp6``, ``bp8``, ``bp10``) that the
+    study's evaluations during training are set beside, in tables and a figure of their own
+    (:mod:`~maopg.experiment.studies.published`); its runs must evaluate (``eval_every``)."""
 
     def __post_init__(self) -> None:
         names = [t.task for t in self.tasks]

@@ -48,15 +48,18 @@ def _seeds(group: Sequence[RunData]) -> str:
     return f"{len(group)} ({running} unfinished)" if running else str(len(group))
 
 
-def _markdown(header: Sequence[str], rows: Iterable[Sequence[str]]) -> str:
+def markdown_table(header: Sequence[str], rows: Iterable[Sequence[str]]) -> str:
+    """A Markdown table of ``rows`` under ``header``."""
     lines = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
     lines += ["| " + " | ".join(row) + " |" for row in rows]
     return "\n".join(lines) + "\n"
 
 
-def _selected(
+def selected_groups(
     runs: Iterable[RunData], methods: Sequence[str] | None
 ) -> list[tuple[tuple[str, str], list[RunData]]]:
+    """The runs' groups (:func:`group_runs`) of ``methods`` (all: ``None``), by task and then in
+    ``methods``' order."""
     groups = group_runs(r for r in runs if methods is None or r.method in methods)
     order = {m: i for i, m in enumerate(methods or ())}
     return sorted(
@@ -82,7 +85,7 @@ def peak_table(
     """Per task × method: seeds, peak and final return, peak paper's metric, samples trained;
     then :func:`differences_note`."""
     rows = []
-    selected = _selected(runs, methods)
+    selected = selected_groups(runs, methods)
     for (task, method), group in selected:
         returns = Summary.of([peak(r, RETURN, window) for r in group])
         last = Summary.of([final(r, RETURN) for r in group])
@@ -113,7 +116,7 @@ def peak_table(
         "peak option-step reward (paper's metric)",
         "samples trained",
     ]
-    return _markdown(header, rows) + differences_note(selected)
+    return markdown_table(header, rows) + differences_note(selected)
 
 
 def threshold_table(
@@ -126,7 +129,7 @@ def threshold_table(
     """Per task × method: low-level samples until the smoothed return reached the task's
     threshold (a task without one gets a row that says so)."""
     rows = []
-    for (task, method), group in _selected(runs, methods):
+    for (task, method), group in selected_groups(runs, methods):
         n = len(group)
         if task not in thresholds:
             rows.append([task, method, "—", "no threshold set", f"0/{n}"])
@@ -144,7 +147,7 @@ def threshold_table(
             ]
         )
     header = ["task", "method", "return threshold", "samples to threshold", "seeds reached"]
-    return _markdown(header, rows)
+    return markdown_table(header, rows)
 
 
 def normalised_table(runs: Iterable[RunData], references: Mapping[str, tuple[float, float]]) -> str:
@@ -154,7 +157,7 @@ def normalised_table(runs: Iterable[RunData], references: Mapping[str, tuple[flo
     study's settings: 0 is the uniform-random policy, 1 the scripted heuristic.
     """
     rows = []
-    selected = [(key, g) for key, g in _selected(runs, None) if key[0] in references]
+    selected = [(key, g) for key, g in selected_groups(runs, None) if key[0] in references]
     for (task, method), group in selected:
         random, scripted = references[task]
         scores = [(final(r, RETURN) - random) / (scripted - random) for r in group]
@@ -168,4 +171,4 @@ def normalised_table(runs: Iterable[RunData], references: Mapping[str, tuple[flo
             ]
         )
     header = ["task", "method", "seeds", "final episode return (last 10%)", "normalised score"]
-    return _markdown(header, rows) + differences_note(selected)
+    return markdown_table(header, rows) + differences_note(selected)

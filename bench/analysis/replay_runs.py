@@ -1,0 +1,108 @@
+"""Does a change leave training as it was? Train committed runs' configs again with each version
+of the code, on one machine, and compare the curves row for row.
+
+Run, for a change that claims to leave behaviour alone (``OLD`` a checkout of the code before
+it, e.g. ``git worktree add /tmp/old <commit>``)::
+
+    PYTHONPATH=OLD .venv/bin/python bench/analysis/replay_runs.py train RUNS --out /tmp/before
+    .venv/bin/python bench/analysis/replay_runs.py train RUNS --out /tmp/after
+    .venv/bin/python bench/analysis/replay_runs.py compare /tmp/before /tmp/after
+
+``train`` trains each of the run directories ``RUNS``' saved ``config.json`` afresh into
+``--out`` (under the run's ``task/method/seedN``), its budget cut to ``--samples`` (0: the
+whole budget);
+``compare`` prints one line per run — ``identical`` over how many rows, or the first row and
+the columns that differ — comparing every column but the machine's timings, and exits 1 if any
+differs. Curves are bit-exact per machine and thread count, not across machines, so both sides
+must train on the same one (a committed run trained elsewhere is no reference). Only what a
+run's budget does not steer is comparable on a shorter budget (an entropy bonus annealed over
+the whole run, ``ppo.ent_decay``, is steered; the committed grid anneals nothing).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import dataclasses
+import sys
+from pathlib import Path
+
+from maopg.experiment.config import TrainConfig
+from maopg.experiment.run_dir import CONFIG, METRICS, TIMING_COLUMNS
+from maopg.experiment.trainer import train
+
+
+def _rows(path: Path) -> list[dict[str, str]]:
+    with path.open() as handle:
+        return [
+            {k: v for k, v in row.items() if k not in TIMING_COLUMNS}
+            for row in csv.DictReader(handle)
+        ]
+
+
+def train_again(run_dir: Path, samples: int, out: Path) -> Path:
+    """Train ``run_dir``'s saved config afresh into ``out/<task>/<method>/seed<seed>``."""
+    saved = TrainConfig.load(run_dir / CONFIG)
+    target = out / saved.task / saved.method / f"seed{saved.seed}"
+    config = dataclasses.replace(
+        saved,
+        total_samples=samples or saved.total_samples,
+        run_dir=str(target),
+        progress=False,
+        video=False,
+        plot=False,
+        eval_episodes=0,
+        logger="tensorboard",
+    )
+    train(config)
+    return target
+
+
+def compare(before: Path, after: Path) -> tuple[str, bool]:
+    """A line on whether ``after``'s curve repeats ``before``'s, and whether it differs."""
+    old, new = _rows(before / METRICS), _rows(after / METRICS)
+    for i, (a, b) in enumerate(zip(old, new, strict=False)):
+        if a != b:
+            columns = sorted(k for k in a.keys() | b.keys() if a.get(k) != b.get(k))
+            return f"DIFFERS at row {i} (samples {a.get('samples')}): {', '.join(columns)}", True
+    if len(old) != len(new):
+        return f"DIFFERS in length: {len(old)} rows before, {len(new)} after", True
+    return f"identical over {len(old)} rows ({old[-1]['samples']} samples)", False
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+    p = sub.add_parser("train", help="train run directories' configs afresh")
+    p.add_argument("runs", nargs="+", type=Path, help="run directories with a config.json")
+    p.add_argument("--samples", type=int, default=20_000, help="budget (0: the run's own)")
+    p.add_argument("--out", type=Path, required=True)
+    p = sub.add_parser("compare", help="compare two train outputs row for row")
+    p.add_argument("before", type=Path)
+    p.add_argument("after", type=Path)
+    args = parser.parse_args()
+    if args.command == "train":
+        if args.samples < 0:
+            parser.error(f"--samples must be >= 0, got {args.samples}")
+        missing = [str(r) for r in args.runs if not (r / CONFIG).exists()]
+        if missing:
+            parser.error(f"no {CONFIG} in {missing[0]}")
+        for run_dir in args.runs:
+            print(f"{run_dir}: trained into {train_again(run_dir, args.samples, args.out)}")
+        return 0
+    runs = sorted(p.parent.relative_to(args.before) for p in args.before.rglob(METRICS))
+    if not runs:
+        parser.error(f"no {METRICS} under {args.before}")
+    differs = False
+    for run in runs:
+        if not (args.after / run / METRICS).exists():
+            line, bad = "DIFFERS: not trained after", True
+        else:
+            line, bad = compare(args.before / run, args.after / run)
+        differs |= bad
+        print(f"{run}: {line}")
+    return 1 if differs else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,173 @@
+"""The Box Pushing studies (issue #43): their definitions, and the tables that set their
+evaluations during training beside the published curves (maopg.experiment.studies.published)."""
+
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from maopg.experiment.studies import Study, StudyTask, frozen, get_study, study_names
+from maopg.experiment.studies.builtin import BOX_PUSHING_THRESHOLD, LITERATURE_EVALUATION
+from maopg.experiment.studies.published import (
+    BIG_BOX,
+    PUBLISHED,
+    PUBLISHED_METHODS,
+    PUBLISHED_SAMPLES,
+    final_value,
+    outcome,
+    outcome_table,
+    over_seeds,
+    value_at,
+    value_table,
+)
+from maopg.experiment.studies.results import reproduce
+from maopg.experiment.studies.runs import RunData, discover_runs
+
+DATA = Path(__file__).parents[1] / "data"
+NAN = math.nan
+
+
+def _run(seed: int, evaluations: list[float], success: list[float] | None = None) -> RunData:
+    """A run of 1,000 samples an iteration that evaluated every second one (at 2K, 4K, ...),
+    with a budget of 12K (the seeds of one group share their settings)."""
+    rows = 2 * len(evaluations)
+    returns = np.full(rows, NAN)
+    returns[1::2] = evaluations
+    rates = np.full(rows, NAN)
+    rates[1::2] = success if success is not None else np.zeros(len(evaluations))
+    return RunData(
+        path=Path(f"/runs/seed{seed}"),
+        task="box_pushing_grid",
+        method="async",
+        seed=seed,
+        samples=np.arange(1, rows + 1) * 1000.0,
+        metrics={"eval_return": returns, "eval_success": rates},
+        finished=True,
+        config={"total_samples": 12_000},
+    )
+
+
+# Evaluations at 2K, 4K, ..., 12K; the second run trains on to 14K.
+FIRST = _run(0, [10, 20, 30, 40, 50, 60])
+SECOND = _run(1, [0, 0, 0, 0, 300, 300, 300], [0, 0, 0, 0, 1, 1, 0.5])
+
+
+def test_the_published_constants_are_the_reference_table():
+    """Every published value, as the reference's §9 table gives it (copied into tests/data)."""
+    with (DATA / "box_pushing_published.csv").open(newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    typed = {
+        (env, method, str(t), mean, sd)
+        for env, methods in PUBLISHED.items()
+        for method, values in methods.items()
+        for t, (mean, sd) in zip(PUBLISHED_SAMPLES, values, strict=True)
+    }
+    table = {(r["env"], r["method"], r["samples"], float(r["mean"]), float(r["sd"])) for r in rows}
+    assert typed == table
+    assert {m for _, m, *_ in table} == set(PUBLISHED_METHODS)
+
+
+def test_a_value_at_t_is_the_mean_of_the_last_five_evaluations_at_or_before_it():
+    assert value_at(FIRST, 9_000) == 25.0  # 10, 20, 30, 40: fewer than five so far
+    assert value_at(FIRST, 12_000) == 40.0  # 20 ... 60
+    assert value_at(SECOND, 14_000) == 180.0  # 0, 0, 300, 300, 300
+    assert math.isnan(value_at(FIRST, 1_500))  # no evaluation yet
+    assert math.isnan(value_at(FIRST, 13_000))  # not trained that far
+    assert math.isnan(value_at(FIRST, 12_000, "eval_length"))  # not logged
+    assert value_at(SECOND, 14_000, "eval_success") == 0.5
+    summary = over_seeds([40.0, 120.0, NAN])  # sample SD, as published: ddof 1
+    assert (summary.mean, summary.std, summary.count) == (80.0, pytest.approx(56.5685), 2)
+
+
+def test_the_value_table_sets_each_method_beside_the_published_rows():
+    table = value_table([FIRST, SECOND], "bp8", (9_000, 12_000, 14_000, 50_000)).splitlines()
+    assert table[0] == "| task | method | seeds | 9K | 12K | 14K | 50K |"
+    # 9K: 25 and 0; 12K: 40 and 120; 14K: the second seed alone, marked (1).
+    assert (
+        table[2] == "| box_pushing_grid | async | 2 | 12.5 ± 17.7 | 80.0 ± 56.6 | 180.0 (1) | — |"
+    )
+    assert table[3] == "| bp8 (published) | ACAC | 5 | — | — | — | 28.8 ± 7.7 |"
+    assert len(table) == 2 + 1 + len(PUBLISHED["bp8"])
+
+
+def test_each_seed_is_classed_by_what_its_final_value_says_it_delivers():
+    assert [outcome(v) for v in (299.2, 200.0, 199.9, 40.1)] == [
+        "big box",
+        "big box",
+        "big box at times",
+        "big box at times",
+    ]
+    assert [outcome(v) for v in (40.0, 19.6, 15.0, 14.9, -10.0)] == [
+        "small boxes only",
+        "small boxes only",
+        "small boxes only",
+        "nothing",
+        "nothing",
+    ]
+    assert outcome(NAN) == "not evaluated"
+    assert BOX_PUSHING_THRESHOLD == BIG_BOX
+    # Final: the value at the run's budget, 12K (0, 0, 0, 300, 300 for the second seed).
+    assert (final_value(FIRST), final_value(SECOND)) == (40.0, 120.0)
+    row = outcome_table([FIRST, SECOND]).splitlines()[2]
+    assert row == (
+        "| box_pushing_grid | async | 2 | 0 | 1 | 1 | 0 | seed0 40.0 (0%), seed1 120.0 (40%) |"
+    )
+
+
+BOX_PUSHING_STUDIES = [n for n in study_names() if n.startswith("box-pushing")]
+
+
+@pytest.mark.parametrize("name", BOX_PUSHING_STUDIES)
+def test_each_box_pushing_study_evaluates_as_the_literature_and_names_its_curves(name):
+    study = get_study(name)
+    (task,) = study.tasks
+    assert study.published in PUBLISHED
+    assert study.published == f"bp{task.settings['size']}"
+    for method in study.methods:
+        settings = {**study.overrides, **task.train_settings(method)}
+        assert {k: settings[k] for k in LITERATURE_EVALUATION} == dict(LITERATURE_EVALUATION)
+
+
+def test_the_box_pushing_studies_are_registered():
+    grid = {"box-pushing-6", "box-pushing-8", "box-pushing-10"}
+    mujoco = {"box-pushing-mujoco", "box-pushing-mujoco-rgb"}
+    assert set(BOX_PUSHING_STUDIES) == grid | mujoco
+
+
+def test_a_study_without_runs_writes_the_published_rows_alone(tmp_path):
+    reproduce(tmp_path / "runs", tmp_path, study="box-pushing-10", train=False, eval_episodes=0)
+    text = (tmp_path / "tables.md").read_text()
+    assert "| bp10 (published) | ACAC | 5 | 25.8 ± 5.4 |" in text
+    assert "no runs yet" in text
+
+
+def test_a_tiny_study_writes_its_tables_and_figure_from_the_logged_evaluations(tmp_path):
+    """Two seeds on the 4x4 grid, evaluating every 500 samples: the study's tables are read off
+    its runs' ``metrics.csv`` by the published rule."""
+    task = StudyTask("box_pushing_grid", (0, 1), frozen({"size": 4}))
+    settings = {"total_samples": 3_000, "batch_ticks": 500, "plot": False}
+    evaluation = {"eval_every": 500, "eval_during_episodes": 2}
+    study = Study("tiny", "-", (task,), ("async",), frozen(settings | evaluation), published="bp6")
+    results = tmp_path / "results"
+    outcomes, written = reproduce(
+        tmp_path / "runs",
+        results,
+        study=study,
+        in_process=True,
+        eval_episodes=0,
+        log=lambda _: None,
+    )
+    assert set(outcomes.values()) == {"done"}
+    assert {p.name for p in written} >= {"published_box_pushing_grid.png", "tables.md"}
+    text = (results / "tables.md").read_text()
+    assert "every 500 samples, 2 episodes, options sampled" in text
+    assert "| bp6 (published) | Mac-IAICC | 5 | 21.3 ± 4.1 |" in text
+    for run in discover_runs([tmp_path / "runs"]):
+        with (run.path / "metrics.csv").open(newline="") as handle:
+            rows = [r for r in csv.DictReader(handle) if r["eval_return"] != "nan"]
+        last = [float(r["eval_return"]) for r in rows if float(r["samples"]) <= 3_000][-5:]
+        assert f"seed{run.seed} {sum(last) / len(last):.1f} (" in text
