@@ -5,7 +5,8 @@ the option-level history in policy and critic (``async-rnn``).
 The paper's method reaches its peak in ~50K samples; 25K low-level samples (≈ 30 s here) are
 enough to leave the uniform-random policy (≈ −66 on the canonical task) far behind. The
 recurrent policy learns more slowly at first (measured here, seed 0: a mean return of 139 over
-20-25K samples, 214 over 28-35K), so it gets 35K.
+20-25K samples, 214 over 28-35K), so it gets 35K. On the Box Pushing grid, ``async`` learns the
+small boxes within 10K samples.
 """
 
 import numpy as np
@@ -44,3 +45,35 @@ def test_async_beats_the_random_policy_by_a_wide_margin(tmp_path, method):
 
     assert episodes.sum() >= 20
     assert trained_mean > random_mean + 200, (trained_mean, random_mean)
+
+
+@pytest.mark.slow
+def test_async_beats_the_random_team_on_the_box_pushing_grid(tmp_path):
+    """4x4 Box Pushing, 10K samples: ``async`` learns to push a small box (19.6) within them,
+    where a random team averages about 1.6 over these 200 episodes. Measured here, the mean
+    return over the last fifth of training was 15.9, 15.6 and 14.2 for seeds 0, 1 and 2 (the
+    big box, 299.6, is not found in this budget: the exploration problem of the benchmark)."""
+    settings = {"size": 4}
+    random = [
+        r.ret
+        for r in evaluate_reference("box_pushing_grid", "random", 200, 0, "continue", settings)
+    ]
+    budget = 10_000
+    config = TrainConfig(
+        task="box_pushing_grid",
+        method="async",
+        seed=0,
+        total_samples=budget,
+        progress=False,
+        video=False,
+        eval_episodes=0,
+        plot=False,
+        env_overrides=settings,
+        run_dir=str(tmp_path / "run"),
+    )
+    rows = read_metrics(train(config) / "metrics.csv")
+    late = [r for r in rows if int(r["samples"]) > 0.8 * budget and int(r["episodes"]) > 0]
+    episodes = np.array([int(r["episodes"]) for r in late])
+    returns = np.array([float(r["episode_return"]) for r in late])
+    trained_mean = float((episodes * returns).sum() / episodes.sum())
+    assert trained_mean > float(np.mean(random)) + 8, (trained_mean, np.mean(random))
