@@ -11,6 +11,7 @@ network is new) plus one :func:`register_method` line, from anywhere::
 
 from __future__ import annotations
 
+import inspect
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -28,6 +29,9 @@ from maopg.learner.mappo import (
     partial_policy,
 )
 from maopg.policy.joint_size import BuildTarget
+
+BUILDER_KEYWORDS = ("hidden", "layers", "config", "target")
+"""The keywords every policy builder is called with (:data:`PolicyBuilder`)."""
 
 PolicyBuilder = Callable[..., nn.Module]
 """``builder(spec, *, hidden, layers, config, target) -> network``: the acting network of a
@@ -89,6 +93,7 @@ def register_method(method: Method, *, overwrite: bool = False) -> Method:
     """Add ``method`` to the registry (a name already taken is an error unless ``overwrite``)."""
     if method.name in _METHODS and not overwrite:
         raise ValueError(f"method {method.name!r} is already registered (pass overwrite=True)")
+    _check_builder(method)
     Strategy(method.strategy)
     taken = section_classes().get(method.section)
     if taken is not None and taken is not method.config_class:
@@ -98,6 +103,26 @@ def register_method(method: Method, *, overwrite: bool = False) -> Method:
         )
     _METHODS[method.name] = method
     return method
+
+
+def _check_builder(method: Method) -> None:
+    """A policy builder must take the keywords the trainer passes (:data:`PolicyBuilder`): one
+    written before ``target`` existed is refused at registration, in one line, rather than
+    with a ``TypeError`` when a run builds it."""
+    try:
+        parameters = inspect.signature(method.policy).parameters
+    except (TypeError, ValueError):  # a builder whose signature cannot be read: trust it
+        return
+    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in parameters.values()):
+        return
+    missing = [k for k in BUILDER_KEYWORDS if k not in parameters]
+    if missing:
+        raise ValueError(
+            f"method {method.name!r}: its policy builder {getattr(method.policy, '__name__', '')}"
+            f" lacks the keyword(s) {missing}; a builder is called as builder(spec, hidden=, "
+            "layers=, config=, target=) (target: what it is built for, "
+            "maopg.policy.joint_size.BuildTarget)"
+        )
 
 
 def get_method(name: str) -> Method:

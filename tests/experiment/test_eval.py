@@ -580,6 +580,8 @@ def test_each_committed_run_is_the_config_its_study_builds():
                 for c in (built, saved)
             ]
             assert learnt[0] == learnt[1], run.path
+            # the budget is resumable (a run may be extended), not free: the study sets it
+            assert built.resolved().total_samples == saved.resolved().total_samples, run.path
             checked += 1
     assert checked >= 40
 

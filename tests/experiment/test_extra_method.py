@@ -140,3 +140,16 @@ def test_a_registered_method_trains_resumes_and_evaluates_through_the_cli(
 
     bad = [*ARGS, "reinforce.lr=-1", "--run-dir", str(tmp_path / "bad")]
     user_error(train_main, bad, r"reinforce\.lr must be > 0")  # checked like ppo.*
+
+
+def test_a_builder_without_the_target_keyword_is_refused_at_registration(monkeypatch):
+    """Builders are called with ``target`` (what they build for); one written for the earlier
+    signature fails in one line when it registers, not with a TypeError mid-run."""
+    monkeypatch.setattr(methods, "_METHODS", dict(methods._METHODS))
+
+    def earlier(spec: Any, *, hidden: int, layers: int, config: Any) -> torch.nn.Module:
+        return centralized_policy(spec, hidden=hidden, layers=layers, config=config)
+
+    with pytest.raises(ValueError, match=r"lacks the keyword\(s\) \['target'\]"):
+        register_method(Method("earlier", "continue", ReinforceLearner, earlier))
+    assert "earlier" not in methods.method_names()

@@ -270,7 +270,13 @@ def run_grid(
                         outcomes[cell] = "skipped"
                     else:
                         log(f"{name}: {_starting(run_dir)} in {run_dir}")
-                        config, resume = cell_config(cell, runs_root, study, overrides, config_file)
+                        try:
+                            config, resume = cell_config(
+                                cell, runs_root, study, overrides, config_file
+                            )
+                        except BaseException:  # a partial run's unreadable config, say
+                            lock.release()
+                            raise
                         running[cell] = _Launched(name, config, resume, lock)
                         settle(block=False)
                         continue
