@@ -3,9 +3,11 @@
 Cached evaluations are keyed on declared behaviour versions
 (:mod:`maopg.experiment.studies.cache`), not on the bytes of the code, so a refactor leaves them
 valid. This test keeps the versions honest: it plays each built-in task's scripted and random
-policies under each strategy (and renders its cameras), and each built-in method's freshly
-initialised, seeded policy greedy and sampled, and compares a digest of what happened with the
-digest recorded for the declared version in ``tests/data/behaviour_fingerprints.json``.
+policies under each strategy over its whole horizon (and its cameras at every decision point
+of a scripted episode), again at each registered study's settings, and each built-in method's
+freshly initialised, seeded policy greedy and sampled from state and from cameras, and compares
+a digest of what happened with the digest recorded for the declared version in
+``tests/data/behaviour_fingerprints.json``.
 
 A failure means a behaviour changed. If the change is meant, raise the version the message
 names (``behaviour_version`` of the task or policy class) and record the new digests::
@@ -22,24 +24,40 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 import pytest
 import torch
 
-from maopg.env import DecisionPoint, make_env
-from maopg.env.rollout import REFERENCE_POLICIES, reference_policy
+from maopg.env import DecisionPoint, OptionEnv, make_env
+from maopg.env.rollout import REFERENCE_POLICIES, ReferencePolicy, reference_policy
 from maopg.experiment.methods import get_method, method_names
-from maopg.tasks import SceneTask, task_class, task_entry, task_names
+from maopg.experiment.studies import get_study, study_names
+from maopg.tasks import SceneTask, make_config, task_class, task_entry, task_names
 
 FINGERPRINTS = Path(__file__).parent / "data" / "behaviour_fingerprints.json"
 RECORD = os.environ.get("MAOPG_RECORD_BEHAVIOUR") == "1"
 STRATEGIES = ("continue", "any", "all")
 MAX_TICKS = 30
-"""Ticks of each fingerprint episode: enough for every option kind to start and end."""
+"""Ticks of a policy's fingerprint episode from state: enough for every option to be chosen."""
+IMAGE_SIZE = 36
+"""The smallest image the CNN encoder reads."""
+IMAGE_TICKS = 10
+"""Ticks of a policy's fingerprint episode from its cameras."""
+STUDY_TICKS = 60
+"""Ticks of a task's fingerprint episodes at a study's settings (teams of eight are slow);
+at its default settings a task plays its whole horizon."""
 
 BUILT_IN_TASKS = [t for t in task_names() if str(task_entry(t).task).startswith("maopg.")]
+STUDY_SETTINGS = {
+    f"{t.task} {json.dumps(dict(t.settings), sort_keys=True)}": (t.task, dict(t.settings))
+    for name in study_names()
+    for t in get_study(name).tasks
+    if t.task in BUILT_IN_TASKS and make_config(t.task, t.settings) != make_config(t.task)
+}
+"""Each task at each study's settings: the evaluations a study caches run there."""
 BUILT_IN_METHODS = [
     m for m in method_names() if get_method(m).learner.__module__.startswith("maopg.")
 ]
@@ -58,52 +76,68 @@ def _point_record(point: DecisionPoint) -> list:
     ]
 
 
-def task_fingerprint(task: str, settings: dict | None = None) -> str:
-    """sha256 of the scripted and random policies' episodes under each strategy, and of a
-    scene's cameras' first images (``settings``: task settings over its defaults)."""
+def _episode(env: OptionEnv, policy: ReferencePolicy, record: Callable) -> list:
+    point = env.reset()
+    records = [record(point)]
+    while not point.done:
+        point = env.step(policy(point))
+        records.append(record(point))
+    return records
+
+
+def _images(point: DecisionPoint) -> list:
+    """The mean colour of each camera's image at ``point``, to 0.1."""
+    return [] if point.images is None else np.round(point.images.mean(axis=(1, 2)), 1).tolist()
+
+
+def task_fingerprint(task: str, settings: dict | None = None, max_ticks: int | None = None) -> str:
+    """sha256 of the scripted and random policies' episodes under each strategy and, for a
+    scene, of its cameras' images at every decision point of a scripted episode (``settings``:
+    task settings over its defaults; ``max_ticks``: a shorter horizon than the task's own)."""
+    overrides = {**(settings or {}), **({"max_ticks": max_ticks} if max_ticks else {})}
     records: list = []
     for strategy in STRATEGIES:
-        overrides = {"max_ticks": MAX_TICKS, **(settings or {})}
         env = make_env(task, strategy, seed=0, overrides=overrides)
         try:
             for name in REFERENCE_POLICIES:
-                policy = reference_policy(name, env, seed=0)
-                point = env.reset()
-                records.append(_point_record(point))
-                while not point.done:
-                    point = env.step(policy(point))
-                    records.append(_point_record(point))
+                records += _episode(env, reference_policy(name, env, seed=0), _point_record)
         finally:
             env.close()
     if issubclass(task_class(task), SceneTask):
-        env = make_env(task, seed=0, images=True, image_size=32, overrides={"max_ticks": 5})
+        env = make_env(task, seed=0, images=True, image_size=32, overrides=overrides)
         try:
-            images = env.reset().images
-            if images is not None:
-                records.append(np.round(images.mean(axis=(1, 2)), 1).tolist())
+            records += _episode(env, reference_policy("scripted", env), _images)
         finally:
             env.close()
     return hashlib.sha256(json.dumps(records).encode()).hexdigest()
 
 
 def policy_fingerprint(method_name: str) -> tuple[str, int]:
-    """sha256 of a freshly initialised, seeded policy's greedy and sampled options over a
-    Tool Delivery episode of seeded random options, and its class's declared version."""
+    """sha256 of a freshly initialised, seeded policy's greedy and sampled options over Tool
+    Delivery episodes of seeded random options, from state and from 36 px cameras (the image
+    encoder's path), and its class's declared version."""
     method = get_method(method_name)
-    env = make_env("tool_delivery", method.strategy, seed=0, overrides={"max_ticks": MAX_TICKS})
-    try:
-        torch.manual_seed(0)
-        policy = method.build_policy(env.spec, hidden=32, layers=1, config=method.default_config())
-        random = reference_policy("random", env, seed=0)
-        points = [env.reset()]
-        while not points[-1].done:
-            points.append(env.step(random(points[-1])))
-    finally:
-        env.close()
     records = []
-    for greedy in (True, False):
-        actor = method.learner.actor(policy, method.default_config(), greedy=greedy, seed=0)
-        records.append([np.asarray(actor(p)).tolist() for p in points[:-1]])
+    for images, ticks in ((False, MAX_TICKS), (True, IMAGE_TICKS)):
+        overrides = {"max_ticks": ticks}
+        env = make_env(
+            "tool_delivery",
+            method.strategy,
+            seed=0,
+            images=images,
+            image_size=IMAGE_SIZE,
+            overrides=overrides,
+        )
+        try:
+            torch.manual_seed(0)
+            config = method.default_config()
+            policy = method.build_policy(env.spec, hidden=32, layers=1, config=config)
+            points = _episode(env, reference_policy("random", env, seed=0), lambda p: p)
+        finally:
+            env.close()
+        for greedy in (True, False):
+            actor = method.learner.actor(policy, config, greedy=greedy, seed=0)
+            records.append([np.asarray(actor(p)).tolist() for p in points[:-1]])
     digest = hashlib.sha256(json.dumps(records).encode()).hexdigest()
     return digest, type(policy).behaviour_version
 
@@ -135,6 +169,14 @@ def _check(kind: str, name: str, version: int, digest: str, owner: str) -> None:
 def test_a_task_behaves_as_its_declared_version(task: str) -> None:
     cls = task_class(task)
     _check("tasks", task, cls.behaviour_version, task_fingerprint(task), cls.__name__)
+
+
+@pytest.mark.parametrize("case", sorted(STUDY_SETTINGS))
+def test_a_task_at_a_studys_settings_behaves_as_its_declared_version(case: str) -> None:
+    task, settings = STUDY_SETTINGS[case]
+    cls = task_class(task)
+    digest = task_fingerprint(task, settings, max_ticks=STUDY_TICKS)
+    _check("tasks", case, cls.behaviour_version, digest, cls.__name__)
 
 
 @pytest.mark.parametrize("method", BUILT_IN_METHODS)
