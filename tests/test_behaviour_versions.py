@@ -14,9 +14,9 @@ names (``behaviour_version`` of the task or policy class) and record the new dig
 
     MAOPG_RECORD_BEHAVIOUR=1 python -m pytest tests/test_behaviour_versions.py -n 0
 
-Floats are rounded before they are hashed (observations to 1e-5, rewards to 1e-6, images to
-the mean of each channel at 0.1), so the digest is about behaviour, not the last bits of one
-machine's arithmetic.
+Floats are rounded before they are hashed (observations to 1e-5, rewards to 1e-6), so the digest
+is about behaviour, not the last bits of one machine's arithmetic; camera images are recorded as
+each channel's mean and compared within :data:`COLOUR_TOLERANCE`.
 """
 
 from __future__ import annotations
@@ -86,14 +86,18 @@ def _episode(env: OptionEnv, policy: ReferencePolicy, record: Callable) -> list:
 
 
 def _images(point: DecisionPoint) -> list:
-    """The mean colour of each camera's image at ``point``, to 0.1."""
-    return [] if point.images is None else np.round(point.images.mean(axis=(1, 2)), 1).tolist()
+    """The mean colour of each camera's image at ``point`` (0-255), to 0.01."""
+    return [] if point.images is None else np.round(point.images.mean(axis=(1, 2)), 2).tolist()
 
 
-def task_fingerprint(task: str, settings: dict | None = None, max_ticks: int | None = None) -> str:
+def task_fingerprint(
+    task: str, settings: dict | None = None, max_ticks: int | None = None
+) -> tuple[str, list]:
     """sha256 of the scripted and random policies' episodes under each strategy and, for a
-    scene, of its cameras' images at every decision point of a scripted episode (``settings``:
-    task settings over its defaults; ``max_ticks``: a shorter horizon than the task's own)."""
+    scene, its cameras' mean colours at every decision point of a scripted episode (compared
+    with a tolerance: a rasteriser may round a pixel differently on another CPU);
+    ``settings``: task settings over its defaults, ``max_ticks``: a shorter horizon than the
+    task's own."""
     overrides = {**(settings or {}), **({"max_ticks": max_ticks} if max_ticks else {})}
     records: list = []
     for strategy in STRATEGIES:
@@ -103,13 +107,14 @@ def task_fingerprint(task: str, settings: dict | None = None, max_ticks: int | N
                 records += _episode(env, reference_policy(name, env, seed=0), _point_record)
         finally:
             env.close()
+    colours: list = []
     if issubclass(task_class(task), SceneTask):
         env = make_env(task, seed=0, images=True, image_size=32, overrides=overrides)
         try:
-            records += _episode(env, reference_policy("scripted", env), _images)
+            colours = _episode(env, reference_policy("scripted", env), _images)
         finally:
             env.close()
-    return hashlib.sha256(json.dumps(records).encode()).hexdigest()
+    return hashlib.sha256(json.dumps(records).encode()).hexdigest(), colours
 
 
 def policy_fingerprint(method_name: str) -> tuple[str, int]:
@@ -146,10 +151,18 @@ def _recorded() -> dict:
     return json.loads(FINGERPRINTS.read_text()) if FINGERPRINTS.exists() else {}
 
 
-def _check(kind: str, name: str, version: int, digest: str, owner: str) -> None:
+COLOUR_TOLERANCE = 0.5
+"""How far (0-255) a camera's mean colour may move before it counts as a change: a few pixels
+rounded differently move it by thousandths, a moved camera or a new colour by far more."""
+
+
+def _check(
+    kind: str, name: str, version: int, digest: str, owner: str, colours: list | None = None
+) -> None:
     if RECORD:
         data = _recorded()
-        data.setdefault(kind, {})[name] = {"version": version, "digest": digest}
+        entry = {"version": version, "digest": digest}
+        data.setdefault(kind, {})[name] = {**entry, **({"colours": colours} if colours else {})}
         FINGERPRINTS.write_text(json.dumps(data, indent=2, sort_keys=True) + "\n")
         return
     recorded = _recorded().get(kind, {}).get(name)
@@ -158,25 +171,36 @@ def _check(kind: str, name: str, version: int, digest: str, owner: str) -> None:
         f"{owner}.behaviour_version is {version}, the fingerprint is recorded for "
         f"{recorded['version']}: record it (module docstring)"
     )
-    assert recorded["digest"] == digest, (
-        f"{name}'s behaviour changed while {owner}.behaviour_version stayed {version}: "
+    changed = (
         "raise it and record the new fingerprint (module docstring), so cached evaluations "
         "are made again"
     )
+    assert recorded["digest"] == digest, (
+        f"{name}'s behaviour changed while {owner}.behaviour_version stayed {version}: {changed}"
+    )
+    expected = recorded.get("colours", [])
+    same_shape = len(expected) == len(colours or []) and all(
+        np.shape(a) == np.shape(b) for a, b in zip(expected, colours or [], strict=False)
+    )
+    assert same_shape and all(
+        np.allclose(a, b, atol=COLOUR_TOLERANCE, rtol=0)
+        for a, b in zip(expected, colours or [], strict=True)
+    ), f"{name}'s camera images changed while {owner}.behaviour_version stayed {version}: {changed}"
 
 
 @pytest.mark.parametrize("task", BUILT_IN_TASKS)
 def test_a_task_behaves_as_its_declared_version(task: str) -> None:
     cls = task_class(task)
-    _check("tasks", task, cls.behaviour_version, task_fingerprint(task), cls.__name__)
+    digest, colours = task_fingerprint(task)
+    _check("tasks", task, cls.behaviour_version, digest, cls.__name__, colours)
 
 
 @pytest.mark.parametrize("case", sorted(STUDY_SETTINGS))
 def test_a_task_at_a_studys_settings_behaves_as_its_declared_version(case: str) -> None:
     task, settings = STUDY_SETTINGS[case]
     cls = task_class(task)
-    digest = task_fingerprint(task, settings, max_ticks=STUDY_TICKS)
-    _check("tasks", case, cls.behaviour_version, digest, cls.__name__)
+    digest, colours = task_fingerprint(task, settings, max_ticks=STUDY_TICKS)
+    _check("tasks", case, cls.behaviour_version, digest, cls.__name__, colours)
 
 
 @pytest.mark.parametrize("method", BUILT_IN_METHODS)
@@ -188,5 +212,5 @@ def test_a_methods_policy_acts_as_its_declared_version(method: str) -> None:
 def test_the_fingerprint_sees_a_change_of_the_rules() -> None:
     """A shorter human stage or a quicker search changes Tool Delivery's digest."""
     recorded = _recorded()["tasks"]["tool_delivery"]["digest"]
-    assert task_fingerprint("tool_delivery", {"human_stage_ticks": 9}) != recorded
-    assert task_fingerprint("tool_delivery", {"search_ticks": 5}) != recorded
+    assert task_fingerprint("tool_delivery", {"human_stage_ticks": 9})[0] != recorded
+    assert task_fingerprint("tool_delivery", {"search_ticks": 5})[0] != recorded
