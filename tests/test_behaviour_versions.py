@@ -52,10 +52,10 @@ at its default settings a task plays its whole horizon."""
 
 BUILT_IN_TASKS = [t for t in task_names() if str(task_entry(t).task).startswith("maopg.")]
 MACHINE_DEPENDENT = {
-    'water_filling {"drones": 4, "jars": 8, "vehicles": 4}': "four drones' controllers run "
-    "numpy ufuncs on arrays long enough for CPU-specific SIMD paths, whose last bits differ "
-    "between machines and grow over an episode (results/README.md: its team-of-eight random "
-    "return under `any` differs between AMD EPYC and Intel)",
+    'water_filling {"drones": 4, "jars": 8, "vehicles": 4}': "its evaluations differ between AMD "
+    "EPYC and Intel (results/README.md): a floating-point difference that grows over an "
+    "episode, not traced (numpy's CPU-specific SIMD code on the four drones' arrays is the "
+    "likely source)",
 }
 """Study settings whose trajectories are bit-exact per machine only: no recorded digest can
 hold on every machine, so they are not fingerprinted (why, per case)."""
