@@ -27,6 +27,7 @@ from maopg.policy import (
     PartialFactoredPolicy,
     PartiallyCentralizedPolicy,
 )
+from maopg.policy.joint_size import BuildTarget
 
 SHORT = {"max_ticks": 25}
 """Episodes of 25 ticks: several end inside a rollout, and inside training chunks."""
@@ -91,7 +92,9 @@ def _learner(envs: SeededVectorEnv, builder, memory: dict[str, bool]) -> MAPPOLe
         sample_gen=torch.Generator().manual_seed(3),
         update_gen=torch.Generator().manual_seed(4),
     )
-    return MAPPOLearner(builder(envs.spec, hidden=16, layers=1, config=config), setup)
+    target = BuildTarget.this_machine()
+    policy = builder(envs.spec, hidden=16, layers=1, config=config, target=target)
+    return MAPPOLearner(policy, setup)
 
 
 @pytest.mark.parametrize(
