@@ -24,7 +24,8 @@ def crossings(source: str, package: str) -> list[str]:
     ``from maopg import x`` or ``import maopg.x as x``, ``x._y``."""
     found = []
     aliases: dict[str, str] = {}  # a name bound to a maopg module -> that module
-    for node in ast.walk(ast.parse(source)):
+    nodes = list(ast.walk(ast.parse(source)))
+    for node in nodes:
         if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
             if not node.module.startswith("maopg"):
                 continue
@@ -41,7 +42,7 @@ def crossings(source: str, package: str) -> list[str]:
                 if private and _package_of(".".join(parts[:-1])) != package:
                     found.append(f"module {alias.name}")
                 aliases[alias.asname or parts[0]] = alias.name if alias.asname else parts[0]
-    for node in ast.walk(ast.parse(source)):
+    for node in nodes:
         if not (isinstance(node, ast.Attribute) and node.attr.startswith("_")):
             continue
         if node.attr.startswith("__"):

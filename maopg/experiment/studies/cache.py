@@ -14,6 +14,7 @@ behaviour as it was (a refactor, a docstring) leaves the caches valid;
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 from collections.abc import Callable, Sequence
@@ -33,8 +34,10 @@ def sha256(paths: Sequence[Path], root: Path) -> str:
     return digest.hexdigest()
 
 
+@functools.cache
 def assets_digest() -> str:
-    """sha256 of the robot and scene models every task builds from."""
+    """sha256 of the robot and scene models every task builds from (read once a process: every
+    cached evaluation's key holds it)."""
     return sha256(sorted(p for p in ASSETS_DIR.rglob("*") if p.is_file()), ASSETS_DIR)
 
 
