@@ -216,7 +216,7 @@ class TrainConfig(Settings):
         if cfg.backend == "processes" and cfg.num_workers == 0:
             cfg.num_workers = min(cfg.num_envs, WORKERS_PER_CORE * (os.cpu_count() or 1))
         if cfg.learner is None:
-            cfg.learner = method.default_config()
+            cfg.learner = method.default_config(task_learner_defaults(cfg.task, method.section))
         elif not isinstance(cfg.learner, method.config_class):
             raise ValueError(
                 f"method {cfg.method!r} takes a {method.config_class.__name__} section, "
@@ -263,7 +263,8 @@ class TrainConfig(Settings):
         values = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
         section = values.pop("learner")
         if section is None:
-            section = get_method(self.method).default_config()
+            method = get_method(self.method)
+            section = method.default_config(task_learner_defaults(self.task, method.section))
         values["env_overrides"] = dict(self.env_overrides)
         values["plugins"] = list(self.plugins)
         for name in RUN_SECTIONS:
@@ -299,7 +300,8 @@ class TrainConfig(Settings):
                 setattr(config, name, _build(RUN_SECTIONS[name], given, f"{name}."))
         if section is not None:
             _build(method.config_class, section, f"{own}.")  # unknown keys, by name
-            config.learner = method.default_config(**section)
+            defaults = task_learner_defaults(config.task, own)
+            config.learner = method.default_config(defaults, **section)
         return config
 
     def save(self, path: Path) -> None:
@@ -315,6 +317,15 @@ class TrainConfig(Settings):
             return TrainConfig.from_dict(data)
         except ValueError as err:
             raise ValueError(f"{path}: {err}") from None
+
+
+def task_learner_defaults(task: str, section: str) -> dict[str, Any]:
+    """What ``task``'s training defaults set in the learner section ``section`` (its
+    ``SECTION.KEY`` entries, by key): exploration on Box Pushing, say. A section of another
+    learner is not this method's business (a ``ppo.*`` default leaves Mac-DQN alone)."""
+    prefix = f"{section}."
+    defaults = task_entry(task).train_defaults
+    return {key[len(prefix) :]: value for key, value in defaults.items() if key.startswith(prefix)}
 
 
 def resolve_device(device: str) -> str:

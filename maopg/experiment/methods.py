@@ -12,7 +12,7 @@ network is new) plus one :func:`register_method` line, from anywhere::
 from __future__ import annotations
 
 import inspect
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -68,9 +68,12 @@ class Method:
         """Its ``metrics.csv`` header."""
         return (*SHARED_COLUMNS, *self.learner.columns, *TIMING_COLUMNS)
 
-    def default_config(self, **given: Any) -> Any:
-        """Its config section: the learner's defaults, then :attr:`settings`, then ``given``."""
-        return self.config_class(**{**dict(self.settings), **given})
+    def default_config(self, task: Mapping[str, Any] | None = None, **given: Any) -> Any:
+        """Its config section: the learner's defaults, then the ``task``'s defaults for this
+        section (``register_task(train_defaults={"ppo.explore_eps": 1.0})``, keys without the
+        section), then :attr:`settings`, then ``given``: a method's own settings say what the
+        method is, so they win over what a task would like every method to use."""
+        return self.config_class(**{**dict(task or {}), **dict(self.settings), **given})
 
     def build_policy(
         self,

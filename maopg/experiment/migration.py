@@ -11,8 +11,15 @@ section in an ``async`` run's config). The flat keys move into ``ppo`` (dropped 
 whose learner never read them) and the other learner's section is dropped. A schema-1 config
 without flat keys (sections already) is read as it is.
 
+Config schema 2 → 3: exploration by ε-mixed sampling (``ppo.explore_eps``) came with tasks
+whose training defaults turn it on (Box Pushing). A MAPPO section written before it trained
+without exploration and says nothing of it, so it is read with ``explore_eps`` 0: an earlier
+run resumes, and a config file of an earlier release runs again, as it trained.
+
 Checkpoint schema 1 → 2: the environments' entry was ``sampler``; the config it holds is
-migrated as a schema-1 config. A checkpoint's config is in its checkpoint's schema.
+migrated as a schema-1 config. Checkpoint schema 2 → 3: its config, as config 2 → 3 (the
+learner's finished-episode count, new with exploration, is 0 where absent). A checkpoint's
+config is in its checkpoint's schema.
 
 A command-line spelling of an earlier release (``epochs=5``, ``--set``) is not a saved file: the
 command lines read it with one deprecation line (:func:`maopg.experiment.config.parse_overrides`).
@@ -23,9 +30,9 @@ from __future__ import annotations
 from typing import Any
 
 SCHEMA_KEY = "schema"
-CONFIG_SCHEMA = 2
+CONFIG_SCHEMA = 3
 """The layout :meth:`~maopg.experiment.config.TrainConfig.save` writes."""
-CHECKPOINT_SCHEMA = 2
+CHECKPOINT_SCHEMA = 3
 """The layout the trainer's checkpoints are written in."""
 
 FLAT_PPO_KEYS = frozenset(
@@ -78,6 +85,8 @@ def migrate_config(data: dict[str, Any]) -> dict[str, Any]:
     values.pop(SCHEMA_KEY, None)
     if schema == 1:
         values = _config_1_to_2(values)
+    if schema <= 2:
+        values = _config_2_to_3(values)
     return values
 
 
@@ -94,15 +103,24 @@ def _config_1_to_2(values: dict[str, Any]) -> dict[str, Any]:
     return values
 
 
+def _config_2_to_3(values: dict[str, Any]) -> dict[str, Any]:
+    if isinstance(values.get("ppo"), dict):
+        values["ppo"] = {"explore_eps": 0.0, **values["ppo"]}
+    return values
+
+
 def migrate_checkpoint(state: dict[str, Any]) -> dict[str, Any]:
     """A loaded checkpoint's entries in the current schema (its config included, when it
     holds one), without the ``schema`` entry."""
     state = dict(state)
     schema = _schema(state, CHECKPOINT_SCHEMA, "checkpoint")
     state.pop(SCHEMA_KEY, None)
+    config = state.get("config")
     if schema == 1:
         if "sampler" in state:
             state["envs"] = state.pop("sampler")
-        if isinstance(state.get("config"), dict):
-            state["config"] = _config_1_to_2(dict(state["config"]))
+        if isinstance(config, dict):
+            config = _config_1_to_2(dict(config))
+    if schema <= 2 and isinstance(config, dict):
+        state["config"] = _config_2_to_3(dict(config))
     return state

@@ -49,6 +49,9 @@ class TrainBatch:
     """``float32 [B]`` value targets ``A + V`` in return units."""
     advantages: Tensor
     """``float32 [B]`` GAE advantages (not yet normalised)."""
+    epsilon: Tensor
+    """``float32 [B]`` the exploration mixed into the behaviour that chose (``old_log_prob`` is
+    the mixture's; PPO scores the updated policy mixed alike)."""
     num_envs: int = 1
     """``E``: row ``s * E + e`` is option step ``s`` of environment ``e``."""
     starts: Tensor | None = None
@@ -134,6 +137,8 @@ class Rollout:
     """
 
     num_envs: int
+    epsilon: float = 0.0
+    """The weight of the exploration mixed into the policy that collected the rollout."""
     vectors: list[Tensor] = field(default_factory=list)
     bank: list[Tensor] = field(default_factory=list)
     """Every distinct camera image of the rollout, ``uint8 [H, W, 3]`` each, in order seen."""
@@ -265,6 +270,7 @@ class Rollout:
             old_value=torch.cat(self.value).float(),
             returns=torch.from_numpy(returns.reshape(-1)).float(),
             advantages=torch.from_numpy(advantages.reshape(-1)).float(),
+            epsilon=torch.full((len(advantages.reshape(-1)),), self.epsilon),
             num_envs=self.num_envs,
             **recurrent,
         )

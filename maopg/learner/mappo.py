@@ -55,6 +55,7 @@ from maopg.policy import (
     PartialFactoredPolicy,
     PartiallyCentralizedPolicy,
     episode_starts,
+    explore,
     set_precision,
     stack_conditions,
 )
@@ -116,6 +117,30 @@ class PPOConfig(Settings):
     backpropagation through time (rMAPPO's ``data_chunk_length``); minibatches are sets of
     chunks, each re-run from the state it was collected with."""
 
+    explore_eps: float = setting(0.0, ge=0.0, le=1.0)
+    """Exploration by ε-mixed sampling (:class:`~maopg.policy.EpsilonMixture`): the weight ε
+    of the uniform distribution over each choosing agent's available options mixed into its
+    conditional while collecting, at the start of training; 0 (the default) collects from the
+    policy itself. The PPO ratio uses the mixed probabilities, evaluation never mixes. It is how
+    the policy finds a reward its own samples miss once an easy one has made them sure (Box
+    Pushing's big box: ``docs/results/exploration.md``); the task's training defaults turn it
+    on where it is needed."""
+    explore_eps_end: float = setting(0.0, ge=0.0, le=1.0)
+    """The ε that ``explore_eps`` falls to linearly over ``explore_decay``, and keeps after."""
+    explore_decay: int = setting(0, ge=0)
+    """How long ε falls from ``explore_eps`` to ``explore_eps_end``, counted in
+    ``explore_unit``s (0: ``explore_eps`` throughout, as ``ent_decay``)."""
+    explore_unit: str = setting("samples", choices=("samples", "episodes"))
+    """What ``explore_decay`` counts: low-level ticks trained on, or training episodes
+    finished (ACAC's published schedule: ε from 1.0 to 0.01 over 30,000 episodes)."""
+    explore_ratio: str = setting("mixture", choices=("mixture", "policy"))
+    """The probabilities in PPO's ratio while exploring: ``mixture`` — the mixed ones, for the
+    acting and the updated policy alike (ACAC's; the update is on-policy for the behaviour
+    that collected the batch, but an option the policy has all but dropped gets all but no
+    gradient, since the mixture's probability of it hardly depends on the policy's), or
+    ``policy`` — the policy's own, as if it had chosen every option itself (biased, but an
+    explored option that paid gets the full push of its advantage)."""
+
     def validate(self) -> None:
         super().validate()
         for name in ("option_history", "memory_norm"):
@@ -123,6 +148,15 @@ class PPOConfig(Settings):
                 raise ValueError(
                     f"ppo.{name}=true is a part of the GRUs: it needs ppo.recurrent=true"
                 )
+
+    def exploration(self, samples: int, episodes: int) -> float:
+        """ε for a rollout collected after ``samples`` ticks and ``episodes`` finished training
+        episodes (``explore_*``)."""
+        done = samples if self.explore_unit == "samples" else episodes
+        if self.explore_decay == 0:
+            return self.explore_eps
+        frac = min(1.0, done / self.explore_decay)
+        return self.explore_eps + frac * (self.explore_eps_end - self.explore_eps)
 
     def entropy_coef(self, samples: int) -> float:
         """The entropy bonus's weight in the update after ``samples`` ticks (``ent_decay``)."""
@@ -258,7 +292,10 @@ class MAPPO:
         if chunks is None:
             obs = batch.obs
             return _StepInputs(
-                lambda: policy.distribution(obs, batch.choosing, batch.running, batch.available),
+                lambda: explore(
+                    policy.distribution(obs, batch.choosing, batch.running, batch.available),
+                    batch.epsilon,
+                ),
                 lambda: critic(obs),
                 batch.joint,
                 batch.old_log_prob,
@@ -275,14 +312,17 @@ class MAPPO:
         critic_state = batch.critic_state[first]  # type: ignore[index]
         kept = chunks[valid]
         return _StepInputs(
-            lambda: policy.sequence(
-                rows.obs,
-                rows.choosing,
-                rows.running,
-                rows.available,
-                policy_state,
-                starts,
-                valid,
+            lambda: explore(
+                policy.sequence(
+                    rows.obs,
+                    rows.choosing,
+                    rows.running,
+                    rows.available,
+                    policy_state,
+                    starts,
+                    valid,
+                ),
+                batch.epsilon[kept],
             ),
             lambda: critic.sequence(
                 rows.obs, critic_state, starts, valid, rows.choosing, rows.running
@@ -495,7 +535,9 @@ class MAPPOLearner(Learner):
         "approx_kl",
         "clip_fraction",
         "explained_variance",
+        "epsilon",
     )
+    """``epsilon``: the weight of the exploration mixed into the rollout (``ppo.explore_eps``)."""
     policy_key = "policy"
 
     def __init__(self, policy: OptionPolicy, setup: LearnerSetup) -> None:
@@ -520,10 +562,14 @@ class MAPPOLearner(Learner):
         """Recurrent only (else ``None``s): the states carried into each environment's current
         decision point, kept from one iteration to the next (and in the checkpoint), since the
         environments' episodes run on across iterations. The environments never see them."""
+        self.episodes = 0
+        """Training episodes finished so far: what ``ppo.explore_unit=episodes`` counts."""
 
     def iteration(self, envs: SeededVectorEnv, samples: int) -> tuple[dict[str, Any], int]:
         cfg = self.config
-        rollout = self.collect(envs)
+        epsilon = cfg.exploration(samples, self.episodes)
+        rollout = self.collect(envs, epsilon, scored_mixed=cfg.explore_ratio == "mixture")
+        self.episodes += len(rollout.episodes)
         advantages, returns, values = rollout.advantages(
             self.value_norm, gamma=self.setup.gamma, lam=cfg.gae_lambda, form=cfg.discount
         )
@@ -539,12 +585,18 @@ class MAPPOLearner(Learner):
             "option_step_reward": float(np.mean(rollout.grid("reward_sum"))),
             **stats,
             "explained_variance": explained,
+            "epsilon": epsilon,
         }
         return row, rollout.ticks
 
     @torch.no_grad()
-    def collect(self, envs: SeededVectorEnv) -> Rollout:
-        """Step all environments in lockstep until ``batch_ticks`` ticks have been collected.
+    def collect(
+        self, envs: SeededVectorEnv, epsilon: float = 0.0, *, scored_mixed: bool = True
+    ) -> Rollout:
+        """Step all environments in lockstep until ``batch_ticks`` ticks have been collected,
+        choosing from the policy mixed with exploration of weight ``epsilon``
+        (:func:`~maopg.policy.explore`); the rollout's log-probabilities are the mixture's, or
+        with ``scored_mixed`` false the policy's own (``ppo.explore_ratio``).
 
         The last row may overshoot ``batch_ticks`` by less than one option step per
         environment; :attr:`Rollout.ticks` is the exact count. Values are stored in the
@@ -559,7 +611,7 @@ class MAPPOLearner(Learner):
         """
         critic, device = self.critic, self.device
         value_on_thread = torch.no_grad()(critic.step)  # grad mode is per thread
-        rollout = Rollout(num_envs=envs.num_envs)
+        rollout = Rollout(num_envs=envs.num_envs, epsilon=epsilon if scored_mixed else 0.0)
         obs = ObsBatch.from_decision_points(envs.points)
         on_device = obs.to(device)
         starts = episode_starts(envs.points)
@@ -573,9 +625,10 @@ class MAPPOLearner(Learner):
         ticks = 0
         with _critic_thread() as thread:
             while ticks < self.setup.batch_ticks:
-                (choosing, running, available), dist, policy_out = acting
+                (choosing, running, available), policy_dist, policy_out = acting
+                dist = explore(policy_dist, epsilon)
                 joint = dist.sample(self.setup.sample_gen)
-                log_prob = dist.log_prob(joint).cpu()
+                log_prob = (dist if scored_mixed else policy_dist).log_prob(joint).cpu()
                 joint = joint.cpu()
                 results = envs.step(joint.numpy())
                 outcomes = [r.outcome for r in results]
@@ -663,7 +716,11 @@ class MAPPOLearner(Learner):
         }
 
     def state_dict(self) -> dict[str, Any]:
-        state = {**self.final_state(), "optimizers": self.ppo.state_dict()}
+        state = {
+            **self.final_state(),
+            "optimizers": self.ppo.state_dict(),
+            "episodes": self.episodes,
+        }
         if self.policy.recurrent:
             state["memory"] = dict(self.memory)
         return state
@@ -674,6 +731,7 @@ class MAPPOLearner(Learner):
         if self.value_norm is not None:
             self.value_norm.load_state_dict(state["value_norm"])
         self.ppo.load_state_dict(state["optimizers"])
+        self.episodes = state.get("episodes", 0)  # a checkpoint from before exploration: 0
         if self.policy.recurrent:
             self.memory = {key: value.to(self.device) for key, value in state["memory"].items()}
 

@@ -214,7 +214,7 @@ class AutoregressiveConditional:
         mask = self.masks[:, agents]
         return torch.log_softmax(logits.masked_fill(~mask, -math.inf), dim=-1)
 
-    def _decode(self, pick: Callable[[Tensor], Tensor]) -> Tensor:
+    def decode(self, pick: Callable[[Tensor], Tensor]) -> Tensor:
         """Draw the choosing agents one after another with ``pick(log_probs [B, max K])``."""
         joint = self.running.clone()
         n = joint.shape[-1]
@@ -242,10 +242,10 @@ class AutoregressiveConditional:
 
     # ------------------------------------------------------------------ the protocol
     def sample(self, generator: torch.Generator | None = None) -> Tensor:
-        return self._decode(lambda lp: draw_multinomial(lp.exp(), generator))
+        return self.decode(lambda lp: draw_multinomial(lp.exp(), generator))
 
     def mode(self) -> Tensor:
-        return self._decode(lambda lp: lp.argmax(dim=-1))
+        return self.decode(lambda lp: lp.argmax(dim=-1))
 
     def log_prob(self, joint: Tensor) -> Tensor:
         """``log π`` of ``int64 [B, N]`` joints: the sum of the choosing agents' factors."""

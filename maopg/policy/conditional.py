@@ -24,8 +24,8 @@ take a ``logsumexp`` over an all-``−inf`` lane.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
-from typing import Protocol
+from collections.abc import Callable, Sequence
+from typing import Protocol, runtime_checkable
 
 import torch
 from torch import Tensor
@@ -46,6 +46,27 @@ class JointOptionDistribution(Protocol):
     def entropy(self) -> Tensor: ...
 
     def mode(self) -> Tensor: ...
+
+
+@runtime_checkable
+class ChainRuleDistribution(JointOptionDistribution, Protocol):
+    """A joint distribution that factors by the chain rule over the agents in the spec's order,
+    ``π(o^U) = Π_{i∈U} π(o^i | o^{<i}, c, z)``, and exposes its factors: what exploration by
+    mixing (:class:`EpsilonMixture`) acts on. Every built-in policy's conditional is one."""
+
+    choosing: Tensor
+    running: Tensor
+
+    def decode(self, pick: Callable[[Tensor], Tensor]) -> Tensor:
+        """The joint ``int64 [B, N]`` drawn agent after agent: each choosing agent's option is
+        ``pick(log π(· | o^{<i}, c, z))`` (``[B, max K]`` → ``[B]``; ``−inf`` where the agent may
+        not go), continuing agents keep their running option."""
+        ...
+
+    def factor_log_probs(self, joint: Tensor) -> Tensor:
+        """``[B, N, max K]``: each agent's factor ``log π(· | o^{<i}, c, z)`` along ``joint``
+        (a continuing agent's is the one-hot of its running option; padding is ``−inf``)."""
+        ...
 
 
 def split_available(available: Tensor, option_counts: Sequence[int]) -> list[Tensor]:
@@ -197,6 +218,13 @@ def draw_multinomial(weights: Tensor, generator: torch.Generator | None = None) 
     return picks.to(weights.device)
 
 
+def _padded(log_probs: Sequence[Tensor]) -> Tensor:
+    """Per-agent ``[B, K_i]`` log-probabilities stacked as ``[B, N, max K]``, padded with −inf."""
+    width = max(lp.shape[-1] for lp in log_probs)
+    pad = torch.nn.functional.pad
+    return torch.stack([pad(lp, (0, width - lp.shape[-1]), value=-math.inf) for lp in log_probs], 1)
+
+
 def _categorical_entropy(log_probs: Tensor) -> Tensor:
     """Entropy over the last dim, with ``0·log 0 = 0`` in forward and backward."""
     finite = torch.isfinite(log_probs)
@@ -214,6 +242,7 @@ class ConditionalJoint:
         self.running = running
         self.log_probs = conditional_log_probs(joint_logits, choosing, running, available)
         """``[B, ΠK_i]`` log-probabilities over the flattened joint (−inf outside the slice)."""
+        self._available = available
 
     @property
     def probs(self) -> Tensor:
@@ -233,6 +262,39 @@ class ConditionalJoint:
 
     def mode(self) -> Tensor:
         return unravel_joint(self.log_probs.argmax(dim=-1), self.option_counts)
+
+    # ------------------------------------------------------------------ the chain rule
+    def decode(self, pick: Callable[[Tensor], Tensor]) -> Tensor:
+        return self._chain(lambda _, factor: pick(factor))[0]
+
+    def factor_log_probs(self, joint: Tensor) -> Tensor:
+        joint = torch.where(self.choosing, joint, self.running)
+        return self._chain(lambda i, _: joint[:, i])[1]
+
+    def _chain(self, pick: Callable[[int, Tensor], Tensor]) -> tuple[Tensor, Tensor]:
+        """The joint and its factors ``[B, N, max K]``, agent after agent: agent i's factor is
+        the slice's marginal over the later agents at the earlier agents' picks, renormalised
+        over agent i's admissible options. A lane agent i may not take holds only −inf, and a
+        ``logsumexp`` over it has a NaN gradient: such lanes are summed over zeros and masked
+        after (as :func:`partial_conditional_log_probs` does)."""
+        counts = self.option_counts
+        masks = agent_masks(self.choosing, self.running, self._available, counts)
+        table = self.log_probs.view(-1, *counts)
+        joint = self.running.clone()
+        factors = []
+        for i, mask in enumerate(masks):
+            lanes = mask.view(*mask.shape, *([1] * (table.dim() - 2)))
+            later = tuple(range(2, table.dim()))
+            summed = torch.where(lanes, table, 0.0)
+            marginal = torch.logsumexp(summed, dim=later) if later else summed
+            factor = torch.log_softmax(marginal.masked_fill(~mask, -math.inf), dim=-1)
+            rows = self.choosing[:, i]
+            if bool(rows.any()):
+                joint[:, i] = torch.where(rows, pick(i, factor), joint[:, i])
+            factors.append(factor)
+            index = joint[:, i].clone().view(-1, 1, *([1] * (table.dim() - 2)))
+            table = table.gather(1, index.expand(-1, 1, *table.shape[2:])).squeeze(1)
+        return joint, _padded(factors)
 
 
 class FactoredConditional:
@@ -271,6 +333,86 @@ class FactoredConditional:
     def mode(self) -> Tensor:
         picks = torch.stack([lp.argmax(dim=-1) for lp in self.agent_log_probs], dim=-1)
         return torch.where(self.choosing, picks, self.running)
+
+    def decode(self, pick: Callable[[Tensor], Tensor]) -> Tensor:
+        """Each agent's pick from its own conditional: the factors do not depend on each other."""
+        picks = torch.stack([pick(lp) for lp in self.agent_log_probs], dim=-1)
+        return torch.where(self.choosing, picks, self.running)
+
+    def factor_log_probs(self, joint: Tensor) -> Tensor:
+        return _padded(self.agent_log_probs)
+
+
+# ---------------------------------------------------------------------------- exploration
+def mix_uniform(log_probs: Tensor, epsilon: Tensor) -> Tensor:
+    """``log((1 − ε)·p + ε·u)`` over the last dim, ``u`` uniform over the entries ``p`` allows
+    (the finite ones); ``epsilon`` is ``[B]`` for the leading dim. Entries ``p`` rules out stay
+    −inf, so the mixture never selects an unavailable option. NaN-free in forward and backward
+    at ε = 0 and ε = 1 (every ``logaddexp`` has a finite side where it is taken)."""
+    allowed = torch.isfinite(log_probs)
+    count = allowed.sum(dim=-1, keepdim=True).clamp(min=1)
+    eps = epsilon.to(log_probs.dtype).view(-1, *([1] * (log_probs.dim() - 1)))
+    keep = torch.log1p(-eps) + torch.where(allowed, log_probs, 0.0)
+    mixed = torch.logaddexp(keep, torch.log(eps) - count.log())
+    return mixed.masked_fill(~allowed, -math.inf)
+
+
+class EpsilonMixture:
+    """The behaviour policy of ε-mixed exploration: each *choosing* agent's chain-rule factor
+    ``π(o^i | o^{<i}, c, z)`` mixed with the uniform distribution over that agent's available
+    options, ``μ_i = (1 − ε)·π_i + ε/|A_i|``; continuing agents keep their running option.
+
+    Why per agent and along the chain rule: this is the per-agent mixture of the literature's
+    decentralized actors (ACAC samples ``(1 − ε)·π + ε/K`` per agent, reference §10) written for
+    the conditional centralized policy; an agent that explores is followed by later agents'
+    conditionals given its choice (a partner can learn to join an explored move), and at ε = 1
+    it is the uniform policy over the slice whatever the network says. ``log_prob`` is
+    ``Σ_{i∈U} log μ_i``, which PPO uses in its ratio for the acting and the updated policy
+    alike (as ACAC does), so the update stays on-policy for the behaviour that collected the
+    batch. ``entropy`` and ``mode`` are the policy's own: the entropy bonus regularises π, not
+    the mixture, and evaluation never explores.
+    """
+
+    def __init__(self, base: ChainRuleDistribution, epsilon: Tensor) -> None:
+        self.base = base
+        self.epsilon = epsilon
+        """``float [B]``: the mixing weight of each row."""
+        self.choosing = base.choosing
+
+    def sample(self, generator: torch.Generator | None = None) -> Tensor:
+        return self.base.decode(
+            lambda lp: draw_multinomial(mix_uniform(lp, self.epsilon).exp(), generator)
+        )
+
+    def log_prob(self, joint: Tensor) -> Tensor:
+        """``Σ`` over the choosing agents of ``log μ_i(o^i | o^{<i})`` along ``joint``."""
+        joint = torch.where(self.choosing, joint, self.base.running)
+        mixed = mix_uniform(self.base.factor_log_probs(joint), self.epsilon)
+        picked = mixed.gather(-1, joint.unsqueeze(-1)).squeeze(-1)
+        return picked.masked_fill(~self.choosing, 0.0).sum(dim=-1)
+
+    def entropy(self) -> Tensor:
+        return self.base.entropy()
+
+    def mode(self) -> Tensor:
+        return self.base.mode()
+
+
+def explore(dist: JointOptionDistribution, epsilon: float | Tensor) -> JointOptionDistribution:
+    """``dist`` mixed with uniform exploration of weight ``epsilon`` (a number, or ``[B]`` one
+    per row: :class:`EpsilonMixture`), or ``dist`` itself where ε is 0 in every row: a run
+    without exploration draws and scores exactly as it did before the mechanism existed."""
+    if not bool(torch.as_tensor(epsilon).any()):
+        return dist
+    if not isinstance(dist, ChainRuleDistribution):
+        raise TypeError(
+            f"exploration by mixing (ppo.explore_eps) needs a policy whose conditional factors "
+            f"by agent (decode, factor_log_probs: ChainRuleDistribution); "
+            f"{type(dist).__name__} does not"
+        )
+    if not isinstance(epsilon, Tensor):
+        epsilon = torch.full(dist.choosing.shape[:1], float(epsilon), device=dist.choosing.device)
+    return EpsilonMixture(dist, epsilon)
 
 
 # ---------------------------------------------------------------------------- joint Q-values

@@ -59,7 +59,9 @@ class TaskEntry:
     state_lines: StateLines | str | None = None
     """``describe()`` dict -> the video panel's lines (default: ``generic_state_lines``)."""
     train_defaults: Mapping[str, Any] = field(default_factory=dict)
-    """Training-config fields this task defaults (``batch_ticks``, ``total_samples``, ...)."""
+    """Training-config fields this task defaults (``batch_ticks``, ``total_samples``, ...) and
+    learner settings under their command-line names (``ppo.explore_eps``), which every method
+    with that section takes unless the method or the user sets them."""
     defaults: Mapping[str, Any] = field(default_factory=dict)
     """Config settings this registration changes from the config class's own defaults (one
     class registered as several tasks: each wrapped PettingZoo environment, say)."""
