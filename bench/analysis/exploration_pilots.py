@@ -6,12 +6,16 @@ pilot table from the logged runs.
 
     python bench/analysis/exploration_pilots.py run [PILOT ...] [--jobs 2]
     python bench/analysis/exploration_pilots.py table > results/exploration/pilots.md
+    python bench/analysis/exploration_pilots.py probe PILOT [PILOT ...]
 
 Every run evaluates during training as the published curves are read (10 episodes sampled from
 the policy, never mixed with exploration, every 2,000 samples; box-pushing reference §8-§9), and
 the table gives each seed's value at 100K and 200K samples on maopg's counter (the mean of its
 last 5 evaluations at or before T) and what it learnt there: the big box (≥ 200), the small
-boxes only, or nothing (:func:`maopg.experiment.studies.published.outcome`).
+boxes only, or nothing (:func:`maopg.experiment.studies.published.outcome`). ``probe`` looks
+at what each seed's final policy does where the big box is decided: along the scripted episode
+(both robots to the big box, then both push), the probability the policy gives the scripted
+joint option at each decision point, and the joint option it prefers there.
 """
 
 from __future__ import annotations
@@ -24,8 +28,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+import torch
+
+from maopg.env.rollout import scripted_policy
+from maopg.experiment.loading import load_trained
 from maopg.experiment.studies.published import outcome, value_at
 from maopg.experiment.studies.runs import load_run
+from maopg.policy import ObsBatch, stack_conditions
 
 ROOT = Path("results/exploration/pilots")
 SEEDS = (0, 1, 2)
@@ -80,6 +90,9 @@ ACAC_SCHEDULE = {
 }
 """ACAC's published ε-mixed sampling (box-pushing reference §10)."""
 
+RNN = {"ppo.option_history": True, "ppo.memory_norm": True}
+"""``async-rnn`` as the Box Pushing studies run it (``RECURRENT_HISTORY``)."""
+
 PILOTS: dict[str, Pilot] = {
     "baseline": Pilot("async at its defaults (no exploration)"),
     "acac-schedule": Pilot(
@@ -91,7 +104,7 @@ PILOTS: dict[str, Pilot] = {
     ),
     "acac-schedule-rnn": Pilot(
         "ACAC's schedule, `async-rnn` (GRUs over each agent's option history, layer-normalised)",
-        {**ACAC_SCHEDULE, "ppo.option_history": True, "ppo.memory_norm": True},
+        {**ACAC_SCHEDULE, **RNN},
         method="async-rnn",
     ),
     "acac-schedule-partial": Pilot(
@@ -106,6 +119,36 @@ PILOTS: dict[str, Pilot] = {
     "acac-schedule-policy-ratio": Pilot(
         "ACAC's schedule, PPO's ratio of the policy's own probabilities (`explore_ratio=policy`)",
         {**ACAC_SCHEDULE, "ppo.explore_ratio": "policy"},
+    ),
+    "acac-schedule-rnn-policy-ratio": Pilot(
+        "ACAC's schedule, `async-rnn` as above, the policy's own ratio",
+        {**RNN, **ACAC_SCHEDULE, "ppo.explore_ratio": "policy"},
+        method="async-rnn",
+    ),
+    "eps1-150k-rnn-policy-ratio": Pilot(
+        "ε from 1.0 to 0.01 over 150K samples, `async-rnn` as above, the policy's own ratio",
+        {
+            **RNN,
+            "ppo.explore_eps": 1.0,
+            "ppo.explore_eps_end": 0.01,
+            "ppo.explore_decay": 150_000,
+            "ppo.explore_ratio": "policy",
+        },
+        method="async-rnn",
+    ),
+    "acac-schedule-rnn-joint": Pilot(
+        "ACAC's schedule, `async-rnn` as above, mixed over the joint (`explore_form=joint`)",
+        {**RNN, **ACAC_SCHEDULE, "ppo.explore_form": "joint"},
+        method="async-rnn",
+    ),
+    "acac-schedule-joint": Pilot(
+        "ACAC's schedule, mixed over the joint (`explore_form=joint`)",
+        {**ACAC_SCHEDULE, "ppo.explore_form": "joint"},
+    ),
+    "acac-schedule-rnn-joint-policy-ratio": Pilot(
+        "ACAC's schedule, `async-rnn` as above, mixed over the joint, the policy's own ratio",
+        {**RNN, **ACAC_SCHEDULE, "ppo.explore_form": "joint", "ppo.explore_ratio": "policy"},
+        method="async-rnn",
     ),
 }
 """Each pilot, in the order they were run."""
@@ -165,6 +208,35 @@ def table() -> str:
     return "\n".join([*lines, "", "Commands (seed 0; the others differ in `--seed`):", *commands])
 
 
+def probe(name: str, seed: int) -> list[str]:
+    """One line per decision point of the scripted episode: the scripted joint option, the
+    final policy's probability of it, and the policy's own most likely joint option."""
+    trained = load_trained(run_dir(name, seed) / "final.pt")
+    env = trained.make_env(seed=0)
+    scripted = scripted_policy(env)
+    names = [agent.option_names for agent in trained.spec.agents]
+    point, state, lines, first = env.reset(), trained.policy.initial_state(1), [], True
+    while not point.done:
+        choosing, running, available = stack_conditions([point])
+        with torch.no_grad():
+            dist, state = trained.policy.step(
+                ObsBatch.from_decision_points([point]),
+                choosing,
+                running,
+                available,
+                state,
+                torch.tensor([first]),
+            )
+        joint = np.asarray(scripted(point))
+        p = float(dist.log_prob(torch.as_tensor(joint).view(1, -1)).exp())
+        mode = dist.mode()[0].tolist()
+        said = ", ".join(names[i][o] for i, o in enumerate(joint) if choosing[0, i])
+        own = ", ".join(names[i][o] for i, o in enumerate(mode) if choosing[0, i])
+        lines.append(f"  tick {point.ticks:3d}: scripted ({said}) p={p:.4f}; policy's mode ({own})")
+        point, first = env.step(joint), False
+    return lines
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     sub = parser.add_subparsers(dest="command", required=True)
@@ -172,12 +244,19 @@ def main() -> None:
     runner.add_argument("pilots", nargs="*", help=f"of {', '.join(PILOTS)} (default: all)")
     runner.add_argument("--jobs", type=int, default=2)
     sub.add_parser("table")
+    prober = sub.add_parser("probe")
+    prober.add_argument("pilots", nargs="+")
     args = parser.parse_args()
     unknown = [name for name in getattr(args, "pilots", []) if name not in PILOTS]
     if unknown:
         parser.error(f"unknown pilot {unknown[0]!r}; the pilots: {', '.join(PILOTS)}")
     if args.command == "run":
         run(args.pilots, args.jobs)
+    elif args.command == "probe":
+        for name in args.pilots:
+            for seed in SEEDS:
+                if (run_dir(name, seed) / "done.json").exists():
+                    print(f"{name} seed {seed}:", *probe(name, seed), sep="\n")
     else:
         print(table())
 

@@ -59,6 +59,7 @@ from maopg.policy import (
     set_precision,
     stack_conditions,
 )
+from maopg.policy.conditional import EXPLORE_FORMS
 from maopg.policy.joint_size import BuildTarget, require_joint_head_fits
 from maopg.settings import Settings, setting
 
@@ -133,6 +134,12 @@ class PPOConfig(Settings):
     explore_unit: str = setting("samples", choices=("samples", "episodes"))
     """What ``explore_decay`` counts: low-level ticks trained on, or training episodes
     finished (ACAC's published schedule: ε from 1.0 to 0.01 over 30,000 episodes)."""
+    explore_form: str = setting("agent", choices=EXPLORE_FORMS)
+    """How the uniform is mixed in: into each choosing agent's chain-rule factor (``agent``,
+    :class:`~maopg.policy.EpsilonMixture`; ACAC's, whose actors are per agent), or into the
+    joint option (``joint``, :class:`~maopg.policy.JointMixture`: with probability ε every
+    choosing agent explores at once, and a failed lone move lowers only the joint option it
+    was part of)."""
     explore_ratio: str = setting("mixture", choices=("mixture", "policy"))
     """The probabilities in PPO's ratio while exploring: ``mixture`` — the mixed ones, for the
     acting and the updated policy alike (ACAC's; the update is on-policy for the behaviour
@@ -292,9 +299,10 @@ class MAPPO:
         if chunks is None:
             obs = batch.obs
             return _StepInputs(
-                lambda: explore(
+                lambda: self.explored(
                     policy.distribution(obs, batch.choosing, batch.running, batch.available),
                     batch.epsilon,
+                    (batch.choosing, batch.running, batch.available),
                 ),
                 lambda: critic(obs),
                 batch.joint,
@@ -312,7 +320,7 @@ class MAPPO:
         critic_state = batch.critic_state[first]  # type: ignore[index]
         kept = chunks[valid]
         return _StepInputs(
-            lambda: explore(
+            lambda: self.explored(
                 policy.sequence(
                     rows.obs,
                     rows.choosing,
@@ -323,6 +331,7 @@ class MAPPO:
                     valid,
                 ),
                 batch.epsilon[kept],
+                (batch.choosing[kept], batch.running[kept], batch.available[kept]),
             ),
             lambda: critic.sequence(
                 rows.obs, critic_state, starts, valid, rows.choosing, rows.running
@@ -333,6 +342,18 @@ class MAPPO:
             advantages[kept],
             targets[kept],
         )
+
+    def explored(
+        self,
+        dist: JointOptionDistribution,
+        epsilon: float | Tensor,
+        conditions: tuple[Tensor, Tensor, Tensor],
+    ) -> JointOptionDistribution:
+        """``dist`` mixed with exploration of weight ``epsilon`` in the configured form
+        (``ppo.explore_form``), for decision points with ``conditions``."""
+        form = self.config.explore_form
+        counts = self.policy.option_counts
+        return explore(dist, epsilon, form, conditions, counts)
 
     def _actor_step(self, inputs: _StepInputs, ent_coef: float) -> dict[str, float]:
         """One gradient step of the policy on PPO's clipped surrogate plus the entropy bonus
@@ -626,7 +647,8 @@ class MAPPOLearner(Learner):
         with _critic_thread() as thread:
             while ticks < self.setup.batch_ticks:
                 (choosing, running, available), policy_dist, policy_out = acting
-                dist = explore(policy_dist, epsilon)
+                here = (choosing.to(device), running.to(device), available.to(device))
+                dist = self.ppo.explored(policy_dist, epsilon, here)
                 joint = dist.sample(self.setup.sample_gen)
                 log_prob = (dist if scored_mixed else policy_dist).log_prob(joint).cpu()
                 joint = joint.cpu()

@@ -398,12 +398,91 @@ class EpsilonMixture:
         return self.base.mode()
 
 
-def explore(dist: JointOptionDistribution, epsilon: float | Tensor) -> JointOptionDistribution:
+class JointMixture:
+    """The behaviour policy of ε-mixed exploration over the *joint* option:
+    ``μ(o^U) = (1 − ε)·π(o^U | c, z) + ε·Π_{i∈U} 1/|A_i|`` — with probability ε every choosing
+    agent draws uniformly from its available options, else the policy draws the joint.
+
+    Why a joint form beside :class:`EpsilonMixture`: scored through per-agent factors, a sample
+    where one agent took an option that fails unless its partner takes the matching one (Box
+    Pushing's lone push at the big box) lowers the *marginal* of that option, and so every
+    joint option containing it — the coordinated one too (the relative overgeneralisation of
+    independent learners). Scored as a joint, ``log μ(o)`` depends on the policy only through
+    ``π(o)``: a failed lone push lowers that joint option alone, which is what a centralized
+    policy is for. At ε = 1 both forms are the same uniform policy over the slice.
+    """
+
+    def __init__(
+        self, base: JointOptionDistribution, epsilon: Tensor, masks: Sequence[Tensor]
+    ) -> None:
+        self.base = base
+        self.epsilon = epsilon
+        self.masks = list(masks)
+        """Per-agent ``bool [B, K_i]``: what each agent may take (its running option alone when
+        it continues), as :func:`agent_masks` gives them."""
+        self.choosing = base.choosing  # type: ignore[attr-defined]
+        self.running = base.running  # type: ignore[attr-defined]
+        sizes = torch.stack([m.sum(dim=-1) for m in self.masks], dim=-1).float()
+        self._log_uniform = -torch.where(self.choosing, sizes.log(), 0.0).sum(dim=-1)
+
+    def sample(self, generator: torch.Generator | None = None) -> Tensor:
+        policy = self.base.sample(generator)
+        device = self.epsilon.device if generator is None else generator.device
+        explores = torch.rand(self.epsilon.shape, generator=generator, device=device)
+        uniform = torch.stack([draw_multinomial(m.float(), generator) for m in self.masks], -1)
+        uniform = torch.where(self.choosing, uniform, self.running)
+        explored = explores.to(self.epsilon.device) < self.epsilon
+        return torch.where(explored[:, None], uniform, policy)
+
+    def log_prob(self, joint: Tensor) -> Tensor:
+        """``log μ`` of ``int64 [B, N]`` joints: −inf outside the slice (an unavailable option
+        of a choosing agent, or another option than its running one for a continuing agent)."""
+        joint = torch.where(self.choosing, joint, self.running)
+        inside = torch.stack(
+            [m.gather(-1, joint[:, i : i + 1]).squeeze(-1) for i, m in enumerate(self.masks)], -1
+        ).all(dim=-1)
+        eps = self.epsilon.to(self._log_uniform.dtype)
+        policy = torch.log1p(-eps) + self.base.log_prob(joint)
+        uniform = torch.where(inside, torch.log(eps) + self._log_uniform, -math.inf)
+        return torch.logaddexp(policy, uniform)
+
+    def entropy(self) -> Tensor:
+        return self.base.entropy()
+
+    def mode(self) -> Tensor:
+        return self.base.mode()
+
+
+EXPLORE_FORMS = ("agent", "joint")
+"""How exploration mixes the uniform in: per choosing agent's factor, or over the joint."""
+
+
+def explore(
+    dist: JointOptionDistribution,
+    epsilon: float | Tensor,
+    form: str = "agent",
+    conditions: tuple[Tensor, Tensor, Tensor] | None = None,
+    option_counts: Sequence[int] = (),
+) -> JointOptionDistribution:
     """``dist`` mixed with uniform exploration of weight ``epsilon`` (a number, or ``[B]`` one
-    per row: :class:`EpsilonMixture`), or ``dist`` itself where ε is 0 in every row: a run
-    without exploration draws and scores exactly as it did before the mechanism existed."""
+    per row), per agent (``form="agent"``: :class:`EpsilonMixture`) or over the joint
+    (``"joint"``: :class:`JointMixture`, which needs the decision points' ``conditions``,
+    ``(choosing, running, available)``, and the agents' ``option_counts``), or ``dist`` itself
+    where ε is 0 in every row: a run without exploration draws and scores exactly as it did
+    before the mechanism existed."""
     if not bool(torch.as_tensor(epsilon).any()):
         return dist
+    if form not in EXPLORE_FORMS:
+        raise ValueError(f"exploration form must be one of {list(EXPLORE_FORMS)}, got {form!r}")
+    if form == "joint":
+        if conditions is None:
+            raise ValueError("joint exploration needs the decision points' conditions")
+        choosing, running, available = conditions
+        rows = choosing.shape[0]
+        if not isinstance(epsilon, Tensor):
+            epsilon = torch.full((rows,), float(epsilon), device=choosing.device)
+        masks = agent_masks(choosing, running, available, option_counts)
+        return JointMixture(dist, epsilon, masks)
     if not isinstance(dist, ChainRuleDistribution):
         raise TypeError(
             f"exploration by mixing (ppo.explore_eps) needs a policy whose conditional factors "

@@ -21,8 +21,10 @@ from maopg.learner import load_checkpoint
 RUN = ["--task", "box_pushing_grid", "env.size=4", "batch_ticks=60", "num_envs=2"]
 RUN += ["backend=local", "progress=false", "video=false", "eval_episodes=0", "plot=false"]
 RUN += ["checkpoint_every=2", "ppo.epochs=2", "--seed", "3"]
+SAMPLES = ["ppo.explore_eps=0.9", "ppo.explore_eps_end=0.1", "ppo.explore_decay=300"]
 EXPLORE = {
-    "samples": ["ppo.explore_eps=0.9", "ppo.explore_eps_end=0.1", "ppo.explore_decay=300"],
+    "samples": SAMPLES,
+    "joint": [*SAMPLES, "ppo.explore_form=joint", "ppo.explore_ratio=policy"],
     "episodes": [
         "ppo.explore_eps=1.0",
         "ppo.explore_eps_end=0.2",
@@ -42,8 +44,9 @@ def _run(run_dir: Path, samples: int, *extra: str) -> list[dict[str, str]]:
         ]
 
 
-@pytest.mark.parametrize("unit", ["samples", "episodes"])
+@pytest.mark.parametrize("unit", ["samples", "episodes", "joint"])
 def test_exploration_is_deterministic_and_resumes_exactly(tmp_path, unit):
+    """Each schedule unit, and the joint form with the policy's ratio (on a samples schedule)."""
     whole = _run(tmp_path / "whole", 480, *EXPLORE[unit])
     again = _run(tmp_path / "again", 480, *EXPLORE[unit])
     assert whole == again
@@ -51,9 +54,9 @@ def test_exploration_is_deterministic_and_resumes_exactly(tmp_path, unit):
     resumed = _run(tmp_path / "resumed", 480, *EXPLORE[unit], "--resume")
     assert resumed == whole
     epsilon = [float(r["epsilon"]) for r in whole]
-    assert epsilon[0] == (0.9 if unit == "samples" else 1.0)
+    assert epsilon[0] == (1.0 if unit == "episodes" else 0.9)
     assert all(a >= b for a, b in itertools.pairwise(epsilon)) and epsilon[-1] < 0.9
-    if unit == "samples":  # ε after s samples: 0.9 - 0.8 * min(s / 300, 1)
+    if unit != "episodes":  # ε after s samples: 0.9 - 0.8 * min(s / 300, 1)
         starts = [0] + [int(r["samples"]) for r in whole[:-1]]
         assert epsilon == pytest.approx([0.9 - 0.8 * min(s / 300, 1) for s in starts])
     else:

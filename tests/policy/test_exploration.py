@@ -1,7 +1,8 @@
-"""Exploration by ε-mixed sampling (:class:`maopg.policy.EpsilonMixture`): each choosing agent's
-chain-rule factor mixed with the uniform distribution over its available options, continuing
-agents untouched, never an unavailable option, log-probabilities that are the mixture's (checked
-against a hand-worked case), and its schedule (``ppo.explore_*``)."""
+"""Exploration by ε-mixed sampling: each choosing agent's chain-rule factor
+(:class:`maopg.policy.EpsilonMixture`) or the joint option (:class:`maopg.policy.JointMixture`)
+mixed with the uniform distribution over the available options, continuing agents untouched,
+never an unavailable option, log-probabilities that are the mixture's (checked against
+hand-worked cases), and its schedule (``ppo.explore_*``)."""
 
 from __future__ import annotations
 
@@ -17,7 +18,6 @@ from maopg.policy import (
     AutoregressivePolicy,
     CentralizedPolicy,
     ConditionalJoint,
-    EpsilonMixture,
     ObsBatch,
     PartiallyCentralizedPolicy,
     explore,
@@ -67,6 +67,12 @@ def _distributions(copies: int = 1) -> dict[str, object]:
     return made
 
 
+def _mixed(dist, eps: float, form: str, copies: int = 1):
+    """``dist`` mixed in ``form`` at ``eps`` (the conditions repeated as ``_distributions``)."""
+    conditions = tuple(t.repeat(copies, 1) for t in (CHOOSING, RUNNING, AVAILABLE))
+    return explore(dist, eps, form, conditions, COUNTS)  # type: ignore[arg-type]
+
+
 def _admissible(joint: torch.Tensor) -> torch.Tensor:
     """``bool [..., B]`` of joints ``[..., B, N]``: every choosing agent's option available,
     every continuing agent's its running one."""
@@ -101,8 +107,29 @@ def test_the_mixture_of_a_product_categorical_is_the_hand_worked_one():
     assert restricted.log_prob(torch.tensor([[0, 1]])).item() == -math.inf
 
 
+def test_the_joint_mixture_of_a_product_categorical_is_the_hand_worked_one():
+    """Three options against two, both choosing, ε = 0.4: ``μ(o) = .6·π(o) + .4/6``; where the
+    policy puts no mass on a joint option the mixture puts ``.4/6`` (a joint ruled out by
+    availability stays impossible)."""
+    p = torch.tensor([[[0.5, 0.0], [0.25, 0.25], [0.0, 0.0]]])
+    both = torch.ones(1, 2, dtype=torch.bool)
+    running = torch.zeros(1, 2, dtype=torch.long)
+    available = torch.ones(1, 5, dtype=torch.bool)
+    dist = ConditionalJoint(p.log(), both, running, available)
+    mixed = explore(dist, 0.4, "joint", (both, running, available), (3, 2))
+    for joint in itertools.product(range(3), range(2)):
+        got = mixed.log_prob(torch.tensor([joint])).exp().item()
+        assert got == pytest.approx(0.6 * float(p[0][joint]) + 0.4 / 6, abs=1e-6), joint
+    available[0, 2] = False  # agent 0's third option
+    restricted = ConditionalJoint(p.log(), both, running, available)
+    mixed = explore(restricted, 0.4, "joint", (both, running, available), (3, 2))
+    assert mixed.log_prob(torch.tensor([[0, 1]])).exp().item() == pytest.approx(0.4 / 4)
+    assert mixed.log_prob(torch.tensor([[2, 0]])).item() == -math.inf
+
+
+@pytest.mark.parametrize("form", ["agent", "joint"])
 @pytest.mark.parametrize("family", ["centralized", "partial", "autoregressive"])
-def test_the_mixture_is_a_distribution_over_the_admissible_joints(family):
+def test_the_mixture_is_a_distribution_over_the_admissible_joints(family, form):
     """Its probabilities sum to 1 over the slice in every row; ε = 1 is uniform over each
     choosing agent's available options; ε = 0 is the policy itself."""
     dist = _distributions()[family]
@@ -111,7 +138,7 @@ def test_the_mixture_is_a_distribution_over_the_admissible_joints(family):
         total = torch.zeros(5)
         for joint in joints:
             joint = joint.expand(5, 3)
-            p = EpsilonMixture(dist, torch.full((5,), eps)).log_prob(joint).exp()  # type: ignore[arg-type]
+            p = _mixed(dist, eps, form).log_prob(joint).exp()
             total += torch.where(_admissible(joint), p, 0.0)
             if eps == 0.0:
                 assert torch.allclose(p, dist.log_prob(joint).exp(), atol=1e-6)  # type: ignore[attr-defined]
@@ -120,19 +147,22 @@ def test_the_mixture_is_a_distribution_over_the_admissible_joints(family):
         [lanes.sum(-1) for lanes in torch.split(AVAILABLE, list(COUNTS), dim=-1)], -1
     )
     uniform = -torch.where(CHOOSING, sizes.float().log(), 0.0).sum(-1)
-    everywhere = explore(dist, 1.0)  # type: ignore[arg-type]
+    everywhere = _mixed(dist, 1.0, form)
     joint = everywhere.sample(torch.Generator().manual_seed(0))
     assert torch.allclose(everywhere.log_prob(joint), uniform, atol=1e-6)
 
 
+@pytest.mark.parametrize("form", ["agent", "joint"])
 @pytest.mark.parametrize("family", ["centralized", "partial", "autoregressive"])
-def test_sampling_never_takes_an_unavailable_option_and_leaves_continuing_agents_alone(family):
+def test_sampling_never_takes_an_unavailable_option_and_leaves_continuing_agents_alone(
+    family, form
+):
     """5,000 draws of each point at ε = 1 (all exploration) and ε = 0.5; their frequencies
     follow the mixture's probabilities."""
     dist = _distributions(copies=5000)[family]
     generator = torch.Generator().manual_seed(3)
     for eps in (1.0, 0.5):
-        mixed = explore(dist, eps)  # type: ignore[arg-type]
+        mixed = _mixed(dist, eps, form, copies=5000)
         draws = mixed.sample(generator).view(5000, 5, 3)
         assert bool(_admissible(draws).all())
         assert bool((draws[:, ~CHOOSING] == RUNNING[~CHOOSING]).all())
@@ -144,8 +174,9 @@ def test_sampling_never_takes_an_unavailable_option_and_leaves_continuing_agents
     assert torch.allclose(counts / 5000, p, atol=0.02)
 
 
+@pytest.mark.parametrize("form", ["agent", "joint"])
 @pytest.mark.parametrize("family", ["centralized", "partial", "autoregressive"])
-def test_the_gradient_of_the_mixed_log_prob_is_finite(family):
+def test_the_gradient_of_the_mixed_log_prob_is_finite(family, form):
     """At ε = 0, 0.5 and 1, with unavailable options in the rows."""
     dist = _distributions()[family]
     joint = dist.sample(torch.Generator().manual_seed(1))  # type: ignore[attr-defined]
@@ -153,9 +184,7 @@ def test_the_gradient_of_the_mixed_log_prob_is_finite(family):
         torch.manual_seed(0)
         obs = ObsBatch(torch.randn(5, 9))
         policy = FAMILIES[family](SPEC, hidden=16)
-        mixed = EpsilonMixture(
-            policy.distribution(obs, CHOOSING, RUNNING, AVAILABLE), torch.full((5,), eps)
-        )
+        mixed = _mixed(policy.distribution(obs, CHOOSING, RUNNING, AVAILABLE), eps, form)
         mixed.log_prob(joint).sum().backward()
         for name, parameter in policy.named_parameters():
             assert parameter.grad is None or bool(torch.isfinite(parameter.grad).all()), name
@@ -191,3 +220,5 @@ def test_a_policy_without_chain_rule_factors_is_refused_in_one_line():
 
     with pytest.raises(TypeError, match="needs a policy whose conditional factors by agent"):
         explore(Opaque(), 0.1)  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="form must be one of"):
+        explore(Opaque(), 0.1, "team")  # type: ignore[arg-type]
