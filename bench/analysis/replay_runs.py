@@ -11,12 +11,13 @@ it, e.g. ``git worktree add /tmp/old <commit>``)::
 ``train`` trains each of the run directories ``RUNS``' saved ``config.json`` afresh into
 ``--out`` (under the run's ``task/method/seedN``), its budget cut to ``--samples`` (0: the
 whole budget);
-``compare`` prints one line per run — ``identical`` over how many rows, or the first row and
-the columns that differ — comparing every column but the machine's timings, and exits 1 if any
-differs. Curves are bit-exact per machine and thread count, not across machines, so both sides
-must train on the same one (a committed run trained elsewhere is no reference). Only what a
-run's budget does not steer is comparable on a shorter budget (an entropy bonus annealed over
-the whole run, ``ppo.ent_decay``, is steered; the committed grid anneals nothing).
+``compare`` prints one line per run — ``identical`` over how many rows, or the first row and the
+columns that differ — comparing every column both sides log but the machine's timings (a column
+one side adds, as a new metric, is named, not compared), and exits 1 if any differs. Curves are
+bit-exact per machine and thread count, not across machines, so both sides must train on the
+same one (a committed run trained elsewhere is no reference). Only what a run's budget does not
+steer is comparable on a shorter budget (an entropy bonus annealed over the whole run,
+``ppo.ent_decay``, is steered; the committed grid anneals nothing).
 """
 
 from __future__ import annotations
@@ -61,13 +62,16 @@ def train_again(run_dir: Path, samples: int, out: Path) -> Path:
 def compare(before: Path, after: Path) -> tuple[str, bool]:
     """A line on whether ``after``'s curve repeats ``before``'s, and whether it differs."""
     old, new = _rows(before / METRICS), _rows(after / METRICS)
+    shared = old[0].keys() & new[0].keys() if old and new else set()
     for i, (a, b) in enumerate(zip(old, new, strict=False)):
-        if a != b:
-            columns = sorted(k for k in a.keys() | b.keys() if a.get(k) != b.get(k))
+        columns = sorted(k for k in shared if a[k] != b[k])
+        if columns:
             return f"DIFFERS at row {i} (samples {a.get('samples')}): {', '.join(columns)}", True
     if len(old) != len(new):
         return f"DIFFERS in length: {len(old)} rows before, {len(new)} after", True
-    return f"identical over {len(old)} rows ({old[-1]['samples']} samples)", False
+    one_sided = sorted((old[0].keys() | new[0].keys()) - shared)
+    logged = f"; logged on one side only: {', '.join(one_sided)}" if one_sided else ""
+    return f"identical over {len(old)} rows ({old[-1]['samples']} samples){logged}", False
 
 
 def main() -> int:

@@ -119,13 +119,12 @@ class PPOConfig(Settings):
     chunks, each re-run from the state it was collected with."""
 
     explore_eps: float = setting(0.0, ge=0.0, le=1.0)
-    """Exploration by ε-mixed sampling (:class:`~maopg.policy.EpsilonMixture`): the weight ε
-    of the uniform distribution over each choosing agent's available options mixed into its
-    conditional while collecting, at the start of training; 0 (the default) collects from the
-    policy itself. The PPO ratio uses the mixed probabilities, evaluation never mixes. It is how
-    the policy finds a reward its own samples miss once an easy one has made them sure (Box
-    Pushing's big box: ``docs/results/exploration.md``); the task's training defaults turn it
-    on where it is needed."""
+    """Exploration by ε-mixed sampling: the weight ε of the uniform distribution over the
+    available options mixed into the policy's conditional while collecting (per choosing agent
+    or over the joint option: ``explore_form``), at the start of training; 0 (the default)
+    collects from the policy itself. Evaluation never mixes. It is how the policy may find a
+    reward its own samples miss once an easy one has made them sure (Box Pushing's big box,
+    whose training defaults turn it on: ``docs/results/exploration.md``)."""
     explore_eps_end: float = setting(0.0, ge=0.0, le=1.0)
     """The ε that ``explore_eps`` falls to linearly over ``explore_decay``, and keeps after."""
     explore_decay: int = setting(0, ge=0)

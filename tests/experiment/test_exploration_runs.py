@@ -22,19 +22,25 @@ RUN = ["--task", "box_pushing_grid", "env.size=4", "batch_ticks=60", "num_envs=2
 RUN += ["backend=local", "progress=false", "video=false", "eval_episodes=0", "plot=false"]
 RUN += ["checkpoint_every=2", "ppo.epochs=2", "--seed", "3"]
 SAMPLES = ["ppo.explore_eps=0.9", "ppo.explore_eps_end=0.1", "ppo.explore_decay=300"]
+SAMPLES += ["ppo.explore_unit=samples"]
 EXPLORE = {
-    "samples": SAMPLES,
+    "samples": [*SAMPLES, "ppo.explore_form=agent"],
     "joint": [*SAMPLES, "ppo.explore_form=joint", "ppo.explore_ratio=policy"],
     "episodes": [
         "ppo.explore_eps=1.0",
         "ppo.explore_eps_end=0.2",
         "ppo.explore_decay=20",
         "ppo.explore_unit=episodes",
+        "ppo.explore_form=agent",
     ],
 }
+"""Every setting given: the grid's training defaults explore (ACAC's schedule, the joint)."""
 
 
 def _run(run_dir: Path, samples: int, *extra: str) -> list[dict[str, str]]:
+    """A run of ``samples``: without exploration unless ``extra`` sets ``ppo.explore_eps``."""
+    if not any(e.startswith("ppo.explore_eps=") for e in extra):
+        extra = (*extra, "ppo.explore_eps=0.0")
     args = [*RUN, "--total-samples", str(samples), "--run-dir", str(run_dir), *extra]
     assert main(args) == 0
     with (run_dir / "metrics.csv").open() as handle:
@@ -102,3 +108,10 @@ def test_a_task_turns_exploration_on_for_every_ppo_method_unless_told_otherwise(
     assert learner(ppo={"explore_eps": 0.1}).explore_eps == 0.1
     assert not hasattr(learner(method="mac-dqn"), "explore_eps")
     assert TrainConfig(task="exploring_grid").resolved().learner.explore_eps == 0.5
+
+
+def test_box_pushing_grid_explores_by_default_and_tool_delivery_does_not():
+    """The grid's training defaults (the pilots' best setting); the paper's tasks unchanged."""
+    grid = TrainConfig(task="box_pushing_grid").resolved().learner
+    assert (grid.explore_eps, grid.explore_form, grid.explore_unit) == (1.0, "joint", "episodes")
+    assert TrainConfig(task="tool_delivery").resolved().learner.explore_eps == 0.0
