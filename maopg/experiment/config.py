@@ -319,6 +319,16 @@ class TrainConfig(Settings):
             raise ValueError(f"{path}: {err}") from None
 
 
+def unset_run(method: str) -> dict[str, Any]:
+    """The settings of a run of ``method`` that sets nothing (:meth:`TrainConfig.to_dict` of the
+    defaults) without its learner section: what a command line or a grid merges its settings
+    into. The section is left out, not written at its class defaults, so that the task's
+    defaults for it (:func:`task_learner_defaults`) still apply to the keys nobody sets."""
+    values = TrainConfig(method=method).to_dict()
+    del values[get_method(method).section]
+    return values
+
+
 def task_learner_defaults(task: str, section: str) -> dict[str, Any]:
     """What ``task``'s training defaults set in the learner section ``section`` (its
     ``SECTION.KEY`` entries, by key): exploration on Box Pushing, say. A section of another

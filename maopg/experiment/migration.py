@@ -11,10 +11,12 @@ section in an ``async`` run's config). The flat keys move into ``ppo`` (dropped 
 whose learner never read them) and the other learner's section is dropped. A schema-1 config
 without flat keys (sections already) is read as it is.
 
-Config schema 2 → 3: exploration by ε-mixed sampling (``ppo.explore_eps``) came with tasks
-whose training defaults turn it on (Box Pushing). A MAPPO section written before it trained
-without exploration and says nothing of it, so it is read with ``explore_eps`` 0: an earlier
-run resumes, and a config file of an earlier release runs again, as it trained.
+Config schema 2 → 3: exploration by ε-mixed sampling (``ppo.explore_*``) came with a task
+whose training defaults turn it on (the Box Pushing grid). A MAPPO section saved in schema 2
+trained without exploration and says nothing of it, so every exploration setting is read as
+off (:data:`EXPLORATION_OFF`): an earlier run resumes as it trained, bit for bit. A file
+without a ``schema`` key — written by hand, or saved before schemas, when no task explored by
+default — is read as it is, so the task's defaults apply to what it leaves unset.
 
 Checkpoint schema 1 → 2: the environments' entry was ``sampler``; the config it holds is
 migrated as a schema-1 config. Checkpoint schema 2 → 3: its config, as config 2 → 3 (the
@@ -65,6 +67,16 @@ earlier releases accepted. Fixed here, not read from today's ``PPOConfig``: the 
 belongs to the releases that wrote it."""
 SCHEMA_1_SECTIONS = ("ppo", "dqn")
 """The learner sections a schema-1 config could hold."""
+EXPLORATION_OFF = {
+    "explore_eps": 0.0,
+    "explore_eps_end": 0.0,
+    "explore_decay": 0,
+    "explore_unit": "samples",
+    "explore_form": "agent",
+    "explore_ratio": "mixture",
+}
+"""MAPPO's exploration settings as schema 2 trained (none): fixed here, not read from today's
+``PPOConfig`` defaults, which a task's training defaults override."""
 
 
 def _schema(data: dict[str, Any], current: int, what: str) -> int:
@@ -85,7 +97,7 @@ def migrate_config(data: dict[str, Any]) -> dict[str, Any]:
     values.pop(SCHEMA_KEY, None)
     if schema == 1:
         values = _config_1_to_2(values)
-    if schema <= 2:
+    if schema == 2:
         values = _config_2_to_3(values)
     return values
 
@@ -105,7 +117,7 @@ def _config_1_to_2(values: dict[str, Any]) -> dict[str, Any]:
 
 def _config_2_to_3(values: dict[str, Any]) -> dict[str, Any]:
     if isinstance(values.get("ppo"), dict):
-        values["ppo"] = {"explore_eps": 0.0, **values["ppo"]}
+        values["ppo"] = {**EXPLORATION_OFF, **values["ppo"]}
     return values
 
 
@@ -120,7 +132,7 @@ def migrate_checkpoint(state: dict[str, Any]) -> dict[str, Any]:
         if "sampler" in state:
             state["envs"] = state.pop("sampler")
         if isinstance(config, dict):
-            config = _config_1_to_2(dict(config))
-    if schema <= 2 and isinstance(config, dict):
+            state["config"] = _config_1_to_2(dict(config))
+    elif schema == 2 and isinstance(config, dict):
         state["config"] = _config_2_to_3(dict(config))
     return state

@@ -25,7 +25,13 @@ from maopg.sim.egl_check import exit_if_mujoco_cannot_import
 exit_if_mujoco_cannot_import("python -m train")
 
 from maopg.experiment.command_line import Parser, add_common_options, run_command
-from maopg.experiment.config import TrainConfig, merge, parse_overrides, split_assignment
+from maopg.experiment.config import (
+    TrainConfig,
+    merge,
+    parse_overrides,
+    split_assignment,
+    unset_run,
+)
 from maopg.experiment.config_file import read_config_file
 from maopg.experiment.methods import method_names
 from maopg.experiment.run_dir import CONFIG
@@ -93,7 +99,7 @@ def parse_args(
     given = dict(split_assignment(item) for item in args.overrides)
     # method=NAME (or a file's method) works like --method: it picks the section
     method = named.get("method", given.get("method", from_file.get("method")))
-    base = TrainConfig(method=method or TrainConfig.method).to_dict()
+    base = unset_run(method or TrainConfig.method)
     if args.resume:
         # A resumed run starts from its saved config (and its plugins, imported before the
         # config is read: its task or method may be theirs); flags must agree with it.

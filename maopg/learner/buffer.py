@@ -49,11 +49,11 @@ class TrainBatch:
     """``float32 [B]`` value targets ``A + V`` in return units."""
     advantages: Tensor
     """``float32 [B]`` GAE advantages (not yet normalised)."""
-    epsilon: Tensor
-    """``float32 [B]`` the exploration mixed into the behaviour that chose (``old_log_prob`` is
-    the mixture's; PPO scores the updated policy mixed alike)."""
     num_envs: int = 1
     """``E``: row ``s * E + e`` is option step ``s`` of environment ``e``."""
+    epsilon: Tensor | None = None
+    """``float32 [B]`` the exploration mixed into the behaviour that chose, whose probabilities
+    ``old_log_prob`` are (PPO scores the updated policy mixed alike); ``None``: none."""
     starts: Tensor | None = None
     """Recurrent only: ``bool [B]`` the point opens an episode (the memory restarts there)."""
     policy_state: Tensor | None = None
@@ -270,7 +270,7 @@ class Rollout:
             old_value=torch.cat(self.value).float(),
             returns=torch.from_numpy(returns.reshape(-1)).float(),
             advantages=torch.from_numpy(advantages.reshape(-1)).float(),
-            epsilon=torch.full((len(advantages.reshape(-1)),), self.epsilon),
             num_envs=self.num_envs,
+            epsilon=torch.full((advantages.size,), self.epsilon) if self.epsilon else None,
             **recurrent,
         )

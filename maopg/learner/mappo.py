@@ -122,7 +122,8 @@ class PPOConfig(Settings):
     """Exploration by ε-mixed sampling: the weight ε of the uniform distribution over the
     available options mixed into the policy's conditional while collecting (per choosing agent
     or over the joint option: ``explore_form``), at the start of training; 0 (the default)
-    collects from the policy itself. Evaluation never mixes. It is how the policy may find a
+    turns exploration off, whatever ``explore_eps_end`` says, and collects from the policy
+    itself. Evaluation never mixes. It is how the policy may find a
     reward its own samples miss once an easy one has made them sure (Box Pushing's big box,
     whose training defaults turn it on: ``docs/results/exploration.md``)."""
     explore_eps_end: float = setting(0.0, ge=0.0, le=1.0)
@@ -137,8 +138,8 @@ class PPOConfig(Settings):
     """How the uniform is mixed in: into each choosing agent's chain-rule factor (``agent``,
     :class:`~maopg.policy.EpsilonMixture`; ACAC's, whose actors are per agent), or into the
     joint option (``joint``, :class:`~maopg.policy.JointMixture`: with probability ε every
-    choosing agent explores at once, and a failed lone move lowers only the joint option it
-    was part of)."""
+    choosing agent explores at once, and for the product categorical of ``async`` a failed
+    lone move lowers only the joint option it was part of)."""
     explore_ratio: str = setting("mixture", choices=("mixture", "policy"))
     """The probabilities in PPO's ratio while exploring: ``mixture`` — the mixed ones, for the
     acting and the updated policy alike (ACAC's; the update is on-policy for the behaviour
@@ -159,7 +160,7 @@ class PPOConfig(Settings):
         """ε for a rollout collected after ``samples`` ticks and ``episodes`` finished training
         episodes (``explore_*``)."""
         done = samples if self.explore_unit == "samples" else episodes
-        if self.explore_decay == 0:
+        if self.explore_decay == 0 or self.explore_eps == 0.0:
             return self.explore_eps
         frac = min(1.0, done / self.explore_decay)
         return self.explore_eps + frac * (self.explore_eps_end - self.explore_eps)
@@ -329,7 +330,7 @@ class MAPPO:
                     starts,
                     valid,
                 ),
-                batch.epsilon[kept],
+                None if batch.epsilon is None else batch.epsilon[kept],
                 (batch.choosing[kept], batch.running[kept], batch.available[kept]),
             ),
             lambda: critic.sequence(
@@ -345,11 +346,13 @@ class MAPPO:
     def explored(
         self,
         dist: JointOptionDistribution,
-        epsilon: float | Tensor,
+        epsilon: float | Tensor | None,
         conditions: tuple[Tensor, Tensor, Tensor],
     ) -> JointOptionDistribution:
-        """``dist`` mixed with exploration of weight ``epsilon`` in the configured form
-        (``ppo.explore_form``), for decision points with ``conditions``."""
+        """``dist`` mixed with exploration of weight ``epsilon`` (``None``: none) in the
+        configured form (``ppo.explore_form``), for decision points with ``conditions``."""
+        if epsilon is None:
+            return dist
         form = self.config.explore_form
         counts = self.policy.option_counts
         return explore(dist, epsilon, form, conditions, counts)

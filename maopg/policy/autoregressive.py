@@ -232,13 +232,15 @@ class AutoregressiveConditional:
 
     def factor_log_probs(self, joint: Tensor) -> Tensor:
         """``[B, N, max K]`` every agent's factor along ``joint``, in one batched pass (teacher
-        forcing); rows of continuing agents are their one-hot (log-probability 0)."""
+        forcing); rows of continuing agents are their one-hot (log-probability 0). Kept as the
+        joint last scored, which :meth:`entropy` reads."""
         joint = torch.where(self.choosing, joint, self.running)
         agents = torch.arange(joint.shape[-1], device=joint.device)
         logits = self.policy.factor_logits(
             self.features, self.choosing, self._known(joint, agents), agents
         )
-        return self._log_softmax(logits, agents)
+        self._scored = self._log_softmax(logits, agents)
+        return self._scored
 
     # ------------------------------------------------------------------ the protocol
     def sample(self, generator: torch.Generator | None = None) -> Tensor:
@@ -250,8 +252,7 @@ class AutoregressiveConditional:
     def log_prob(self, joint: Tensor) -> Tensor:
         """``log π`` of ``int64 [B, N]`` joints: the sum of the choosing agents' factors."""
         joint = torch.where(self.choosing, joint, self.running)
-        self._scored = self.factor_log_probs(joint)
-        picked = self._scored.gather(-1, joint.unsqueeze(-1)).squeeze(-1)
+        picked = self.factor_log_probs(joint).gather(-1, joint.unsqueeze(-1)).squeeze(-1)
         return picked.masked_fill(~self.choosing, 0.0).sum(dim=-1)
 
     def entropy(self) -> Tensor:

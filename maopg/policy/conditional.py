@@ -408,8 +408,10 @@ class JointMixture:
     Pushing's lone push at the big box) lowers the *marginal* of that option, and so every
     joint option containing it — the coordinated one too (the relative overgeneralisation of
     independent learners). Scored as a joint, ``log μ(o)`` depends on the policy only through
-    ``π(o)``: a failed lone push lowers that joint option alone, which is what a centralized
-    policy is for. At ε = 1 both forms are the same uniform policy over the slice.
+    ``π(o)``: for the product categorical (``async``) a failed lone push lowers that joint
+    option alone, which is what a centralized policy is for (a factored or autoregressive
+    policy's ``π(o)`` is still a product of per-agent factors). At ε = 1 both forms are the same
+    uniform policy over the slice.
     """
 
     def __init__(
@@ -470,10 +472,10 @@ def explore(
     ``(choosing, running, available)``, and the agents' ``option_counts``), or ``dist`` itself
     where ε is 0 in every row: a run without exploration draws and scores exactly as it did
     before the mechanism existed."""
-    if not bool(torch.as_tensor(epsilon).any()):
-        return dist
     if form not in EXPLORE_FORMS:
         raise ValueError(f"exploration form must be one of {list(EXPLORE_FORMS)}, got {form!r}")
+    if not bool(torch.as_tensor(epsilon).any()):
+        return dist
     if form == "joint":
         if conditions is None:
             raise ValueError("joint exploration needs the decision points' conditions")

@@ -15,7 +15,7 @@ import pytest
 from maopg.experiment.config import TrainConfig
 from maopg.experiment.migration import SCHEMA_KEY
 from maopg.experiment.run_dir import TIMING_COLUMNS
-from maopg.experiment.train_cli import main
+from maopg.experiment.train_cli import main, parse_args
 from maopg.learner import load_checkpoint
 
 RUN = ["--task", "box_pushing_grid", "env.size=4", "batch_ticks=60", "num_envs=2"]
@@ -80,14 +80,33 @@ def test_exploration_changes_what_is_collected_and_off_is_the_policy_itself(tmp_
 
 
 def test_a_config_written_before_exploration_loads_with_it_off(tmp_path):
-    """A saved schema-2 config (no ``explore_*`` keys) of a task whose training defaults turn
-    exploration on: it resumes as it trained."""
+    """A saved schema-2 config (no ``explore_*`` keys) of the task whose training defaults
+    explore reads every exploration setting as off, so it resumes as it trained; a file without
+    a schema (written by hand) takes the task's defaults for what it leaves unset."""
     saved = TrainConfig(task="box_pushing_grid").to_dict()
     for key in [k for k in saved["ppo"] if k.startswith("explore_")]:
         del saved["ppo"][key]
     path = tmp_path / "config.json"
     path.write_text(json.dumps({SCHEMA_KEY: 2, **saved}))
-    assert TrainConfig.load(path).resolved().learner.explore_eps == 0.0
+    learner = TrainConfig.load(path).resolved().learner
+    assert (learner.explore_eps, learner.explore_eps_end, learner.explore_decay) == (0, 0, 0)
+    assert (learner.explore_unit, learner.explore_form) == ("samples", "agent")
+    assert learner.exploration(10**6, 10**6) == 0.0
+    handmade = tmp_path / "run.yaml"
+    handmade.write_text("task: box_pushing_grid\nppo:\n  epochs: 4\n")
+    learner = TrainConfig.load(handmade).resolved().learner
+    assert (learner.epochs, learner.explore_eps, learner.explore_form) == (4, 1.0, "joint")
+
+
+def test_the_command_line_takes_the_tasks_exploration_unless_told_otherwise():
+    def learner(*argv: str):
+        return parse_args(["--task", "box_pushing_grid", *argv])[0].resolved().learner
+
+    assert (learner().explore_eps, learner().explore_form) == (1.0, "joint")
+    assert (learner("ppo.lr=0.001").lr, learner("ppo.lr=0.001").explore_eps) == (0.001, 1.0)
+    assert learner("ppo.explore_eps=0").explore_eps == 0.0
+    assert learner("--method", "async-rnn").explore_unit == "episodes"
+    assert not hasattr(learner("--method", "mac-dqn"), "explore_eps")
 
 
 def test_a_task_turns_exploration_on_for_every_ppo_method_unless_told_otherwise(monkeypatch):

@@ -42,18 +42,8 @@ def _fixed_batch(policy, critic, size: int = 96) -> TrainBatch:
     # Advantages that favour option z of agent a: a policy update can clearly exploit them.
     advantages = torch.where(joint[:, 0] == 2, 1.0, -0.5) + 0.1 * torch.randn(size, generator=gen)
     returns = 20.0 + 5.0 * obs.vectors[:, 0]
-    epsilon = torch.zeros(size)
     return TrainBatch(
-        obs,
-        choosing,
-        running,
-        available,
-        joint,
-        old_log_prob,
-        old_value,
-        returns,
-        advantages,
-        epsilon,
+        obs, choosing, running, available, joint, old_log_prob, old_value, returns, advantages
     )
 
 

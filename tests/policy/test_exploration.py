@@ -190,6 +190,18 @@ def test_the_gradient_of_the_mixed_log_prob_is_finite(family, form):
             assert parameter.grad is None or bool(torch.isfinite(parameter.grad).all()), name
 
 
+@pytest.mark.parametrize("family", ["centralized", "partial", "autoregressive"])
+def test_the_entropy_is_the_policys_own_along_the_scored_joint(family):
+    """The bonus regularises the policy, not the mixture: scored through the mixture, the
+    entropy is what the policy alone gives along the same joint (the autoregressive one's is
+    read along the joint last scored)."""
+    joint = _distributions()[family].sample(torch.Generator().manual_seed(2))  # type: ignore[attr-defined]
+    alone, mixed = _distributions()[family], _mixed(_distributions()[family], 0.5, "agent")
+    alone.log_prob(joint)  # type: ignore[attr-defined]
+    mixed.log_prob(joint)
+    assert torch.allclose(mixed.entropy(), alone.entropy(), atol=1e-6)  # type: ignore[attr-defined]
+
+
 def test_mix_uniform_keeps_ruled_out_entries_out():
     log_probs = torch.tensor(
         [[0.0, -math.inf, -math.inf], [math.log(0.25), math.log(0.75), -math.inf]]
@@ -210,6 +222,8 @@ def test_the_schedule_falls_linearly_then_holds():
     )
     assert acac.exploration(10**6, 15_000) == pytest.approx(0.505)
     assert PPOConfig(explore_eps=0.2).exploration(10**6, 10**6) == 0.2  # decay 0: constant
+    off = PPOConfig(explore_eps=0.0, explore_eps_end=0.01, explore_decay=10)
+    assert off.exploration(10**6, 10**6) == 0.0  # 0 is off, whatever the end value
 
 
 def test_a_policy_without_chain_rule_factors_is_refused_in_one_line():

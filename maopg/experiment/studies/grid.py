@@ -32,7 +32,13 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from maopg.experiment.config import TrainConfig, merge, nest_settings, parse_overrides
+from maopg.experiment.config import (
+    TrainConfig,
+    merge,
+    nest_settings,
+    parse_overrides,
+    unset_run,
+)
 from maopg.experiment.config_file import read_config_file
 from maopg.experiment.methods import method_names
 from maopg.experiment.run_dir import CONFIG, DONE
@@ -83,7 +89,7 @@ def cell_config(
     from_file = read_config_file(config_file) if config_file is not None else {}
     saved = read_config_file(run_dir / CONFIG) if resume else {}
     loaded = load_plugins([*from_file.get("plugins", []), *saved.get("plugins", [])])
-    base = TrainConfig.from_dict(saved) if resume else TrainConfig(method=cell.method)
+    base = TrainConfig.from_dict(saved).to_dict() if resume else unset_run(cell.method)
     settings = {
         **GRID_SETTINGS,
         **study.overrides,
@@ -96,7 +102,7 @@ def cell_config(
     for key, value in named.items():
         if key in values and values[key] != value:
             raise ValueError(f"{key}={values[key]} contradicts the grid's cell ({key} {value})")
-    merged = {**merge(merge(base.to_dict(), from_file), values), **named}
+    merged = {**merge(merge(base, from_file), values), **named}
     plugins = [*merged.get("plugins", []), *from_file.get("plugins", []), *loaded]
     merged["plugins"] = list(dict.fromkeys(plugins))
     return TrainConfig.from_dict(merged), resume
