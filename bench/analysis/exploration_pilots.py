@@ -1,6 +1,7 @@
 """The exploration pilots on Box Pushing (issue: learning past deceptive optima): each pilot a
 setting of the exploration (and of the method) against ``async`` without exploration, 3 seeds
-(the best one on 5 seeds and three grid sizes, as the target reads it), each run persisted in
+(the best one on 5 seeds and three grid sizes, as the target reads it; and on Tool Delivery,
+whether the grid's default exploration would hurt it there), each run persisted in
 ``results/exploration/pilots/<pilot>/seed<k>`` (config, metrics, ``done.json``; weights stay
 local), so ``run`` resumes where a session stopped and ``table`` regenerates the write-up's
 pilot table from the logged runs.
@@ -11,12 +12,12 @@ pilot table from the logged runs.
 
 Every run evaluates during training as the published curves are read (10 episodes sampled from
 the policy, never mixed with exploration, every 2,000 samples; box-pushing reference §8-§9), and
-the table gives each seed's value at 100K and 200K samples on maopg's counter (the mean of its
-last 5 evaluations at or before T) and how many seeds reach the issue's target there (≥ 290:
-the big box; both small boxes are worth 39.6). ``probe`` looks
-at what each seed's final policy does where the big box is decided: along the scripted episode
-(both robots to the big box, then both push), the probability the policy gives the scripted
-joint option at each decision point, and the joint option it prefers there.
+the table gives each seed's value at half its budget and at its budget, samples on maopg's
+counter (100K and 200K on the grid; the mean of its last 5 evaluations at or before T) and how
+many seeds reach the issue's target there (≥ 290: the big box; both small boxes are worth 39.6).
+``probe`` looks at what each seed's final policy does where the big box is decided: along the
+scripted episode (both robots to the big box, then both push), the probability the policy gives
+the scripted joint option at each decision point, and the joint option it prefers there.
 """
 
 from __future__ import annotations
@@ -42,8 +43,9 @@ ROOT = Path("results/exploration/pilots")
 SEEDS = (0, 1, 2)
 EVALUATION = {"eval_every": 2_000, "eval_during_episodes": 10, "eval_during_sample": True}
 """As the Box Pushing studies evaluate (``LITERATURE_EVALUATION`` of the built-in studies)."""
-AT = (100_000, 200_000)
-"""The samples the table reads each seed's value at (the issue's target is at 200K)."""
+AT = (0.5, 1.0)
+"""Where the table reads each seed's value, as fractions of its pilot's budget: at 100K and
+200K samples on the Box Pushing grid (the issue's target is at 200K)."""
 TARGET = 290.0
 """The issue's target: a seed's value at 200K at least this (ACAC's are 299.1-299.3)."""
 
@@ -225,8 +227,8 @@ def run(names: list[str], jobs: int) -> None:
 def table() -> str:
     lines = [
         "| pilot | setting | task | "
-        + " | ".join(f"seeds at {t // 1000}K" for t in AT)
-        + " | ≥ 290 at 200K |",
+        + " | ".join(("seeds at half the budget", "seeds at the budget"))
+        + " | ≥ 290 at the budget |",
         "|---|---|---|" + "---|" * len(AT) + "---|",
     ]
     for name, pilot in PILOTS.items():
@@ -237,10 +239,11 @@ def table() -> str:
         ]
         if not runs:
             continue
-        cells = [", ".join(f"{value_at(r, t):.1f}" for r in runs) for t in AT]
-        big = sum(value_at(r, AT[-1]) >= TARGET for r in runs)
+        at = [fraction * pilot.total_samples for fraction in AT]
+        cells = [", ".join(f"{value_at(r, t):.1f}" for r in runs) for t in at]
+        big = sum(value_at(r, at[-1]) >= TARGET for r in runs)
         reached = f"{big}/{len(runs)}" if pilot.task == "box_pushing_grid" else "—"
-        grid = f"{pilot.size}x{pilot.size}" if pilot.task == "box_pushing_grid" else pilot.task
+        grid = f"grid {pilot.size}x{pilot.size}" if pilot.task == "box_pushing_grid" else pilot.task
         lines.append(
             f"| `{name}` | {pilot.about} | {grid} | " + " | ".join(cells) + f" | {reached} |"
         )
