@@ -282,7 +282,9 @@ class TrainConfig(Settings):
     @staticmethod
     def from_dict(data: dict[str, Any]) -> TrainConfig:
         """Inverse of :meth:`to_dict` (a config of an earlier release is brought to this
-        layout when its file is read: :mod:`maopg.experiment.migration`)."""
+        layout when its file is read: :mod:`maopg.experiment.migration`). The method's section
+        may be partial or missing: what it leaves unset takes the task's defaults for it, then
+        the method's settings, then the learner's own (:meth:`Method.default_config`)."""
         values = dict(data)
         method = get_method(values.get("method", TrainConfig.method))
         own = method.section
@@ -298,10 +300,9 @@ class TrainConfig(Settings):
         for name, given in run_sections.items():
             if given is not None:
                 setattr(config, name, _build(RUN_SECTIONS[name], given, f"{name}."))
-        if section is not None:
-            _build(method.config_class, section, f"{own}.")  # unknown keys, by name
-            defaults = task_learner_defaults(config.task, own)
-            config.learner = method.default_config(defaults, **section)
+        given = section or {}
+        _known(method.config_class, given, f"{own}.")
+        config.learner = method.default_config(task_learner_defaults(config.task, own), **given)
         return config
 
     def save(self, path: Path) -> None:
@@ -353,11 +354,16 @@ def resolve_device(device: str) -> str:
     return device
 
 
-def _build(cls: type, data: dict[str, Any], prefix: str) -> Any:
+def _known(cls: type, data: dict[str, Any], prefix: str) -> None:
+    """Every key of ``data`` names a field of ``cls`` (a ``ValueError`` naming the others)."""
     names = {f.name for f in dataclasses.fields(cls)} - {"learner", *RUN_SECTIONS}
     unknown = sorted(set(data) - names)
     if unknown:
         raise ValueError(f"unknown config keys {[prefix + k for k in unknown]}")
+
+
+def _build(cls: type, data: dict[str, Any], prefix: str) -> Any:
+    _known(cls, data, prefix)
     return cls(**data)
 
 
