@@ -9,6 +9,7 @@ pilot table from the logged runs.
     python bench/analysis/exploration_pilots.py run [PILOT ...] [--jobs 2]
     python bench/analysis/exploration_pilots.py table > results/exploration/pilots.md
     python bench/analysis/exploration_pilots.py probe PILOT [PILOT ...]
+    python bench/analysis/exploration_pilots.py episodes PILOT [PILOT ...]
 
 Every run evaluates during training as the published curves are read (10 episodes sampled from
 the policy, never mixed with exploration, every 2,000 samples; box-pushing reference §8-§9), and
@@ -284,6 +285,29 @@ def probe(name: str, seed: int) -> list[str]:
     return lines
 
 
+WINDOW = 50_000
+"""The sample windows ``episodes`` counts solved training episodes in."""
+
+
+def episodes(name: str, seed: int) -> str:
+    """One seed's training record: solved training episodes (Box Pushing: the big box; Tool
+    Delivery: a delivery) in each window of :data:`WINDOW` samples, the final ε, and the first
+    evaluation at or above 200 (the paper's Tool Delivery threshold; on Box Pushing only the
+    big box pays that much)."""
+    run = load_run(run_dir(name, seed))
+    samples, solved = run.samples, run.column("success_rate") * run.column("episodes")
+    windows = [
+        int(np.nansum(solved[(samples > lo) & (samples <= lo + WINDOW)]))
+        for lo in range(0, PILOTS[name].total_samples, WINDOW)
+    ]
+    evaluated, returns = run.curve("eval_return")
+    first = next((int(s) for s, r in zip(evaluated, returns, strict=True) if r >= 200), None)
+    return (
+        f"{name} seed {seed}: solved training episodes per {WINDOW // 1000}K samples {windows}; "
+        f"final ε {run.column('epsilon')[-1]:.2f}; first evaluation ≥ 200 at {first} samples"
+    )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     sub = parser.add_subparsers(dest="command", required=True)
@@ -291,19 +315,23 @@ def main() -> None:
     runner.add_argument("pilots", nargs="*", help=f"of {', '.join(PILOTS)} (default: all)")
     runner.add_argument("--jobs", type=int, default=2)
     sub.add_parser("table")
-    prober = sub.add_parser("probe")
-    prober.add_argument("pilots", nargs="+")
+    for command in ("probe", "episodes"):
+        sub.add_parser(command).add_argument("pilots", nargs="+")
     args = parser.parse_args()
     unknown = [name for name in getattr(args, "pilots", []) if name not in PILOTS]
     if unknown:
         parser.error(f"unknown pilot {unknown[0]!r}; the pilots: {', '.join(PILOTS)}")
     if args.command == "run":
         run(args.pilots, args.jobs)
-    elif args.command == "probe":
+    elif args.command in ("probe", "episodes"):
         for name in args.pilots:
             for seed in PILOTS[name].seeds:
-                if (run_dir(name, seed) / "done.json").exists():
+                if not (run_dir(name, seed) / "done.json").exists():
+                    continue
+                if args.command == "probe":
                     print(f"{name} seed {seed}:", *probe(name, seed), sep="\n")
+                else:
+                    print(episodes(name, seed))
     else:
         print(table())
 
