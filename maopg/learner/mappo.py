@@ -123,9 +123,9 @@ class PPOConfig(Settings):
     available options mixed into the policy's conditional while collecting (per choosing agent
     or over the joint option: ``explore_form``), at the start of training; 0 (the default)
     turns exploration off, whatever ``explore_eps_end`` says, and collects from the policy
-    itself. Evaluation never mixes. It is how the policy may find a
-    reward its own samples miss once an easy one has made them sure (Box Pushing's big box,
-    whose training defaults turn it on: ``docs/results/exploration.md``)."""
+    itself. Evaluation never mixes. It is how the policy may find a reward its own samples
+    miss once an easy one has made them sure (Box Pushing's big box, whose training defaults
+    turn it on: ``docs/results/exploration.md``)."""
     explore_eps_end: float = setting(0.0, ge=0.0, le=1.0)
     """The ε that ``explore_eps`` falls to linearly over ``explore_decay``, and keeps after."""
     explore_decay: int = setting(0, ge=0)
@@ -649,8 +649,10 @@ class MAPPOLearner(Learner):
         with _critic_thread() as thread:
             while ticks < self.setup.batch_ticks:
                 (choosing, running, available), policy_dist, policy_out = acting
-                here = (choosing.to(device), running.to(device), available.to(device))
-                dist = self.ppo.explored(policy_dist, epsilon, here)
+                dist = policy_dist
+                if epsilon:  # the conditions cross to the device only when they are needed
+                    here = (choosing.to(device), running.to(device), available.to(device))
+                    dist = self.ppo.explored(policy_dist, epsilon, here)
                 joint = dist.sample(self.setup.sample_gen)
                 log_prob = (dist if scored_mixed else policy_dist).log_prob(joint).cpu()
                 joint = joint.cpu()
