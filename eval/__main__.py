@@ -1,8 +1,8 @@
-"""``python -m eval`` from a clone: the command line lives in :mod:`maopg.experiment.eval_cli`
+"""``python -m eval`` from a clone: the command line lives in :mod:`maopg.experiment.cli.eval_cli`
 (installed as ``maopg-eval``)."""
 
 import sys
 
-from maopg.experiment.eval_cli import main
+from maopg.experiment.cli.eval_cli import main
 
 sys.exit(main())

@@ -33,7 +33,7 @@ import torch
 
 from maopg.env import DecisionPoint, OptionEnv, make_env
 from maopg.env.rollout import REFERENCE_POLICIES, ReferencePolicy, reference_policy
-from maopg.experiment.methods import get_method, method_names
+from maopg.experiment.run.methods import get_method, method_names
 from maopg.experiment.studies import get_study, study_names
 from maopg.tasks import SceneTask, make_config, task_class, task_entry, task_names
 

@@ -104,7 +104,7 @@ def test_console_scripts_point_into_maopg(wheel: Path) -> None:
 
 
 def test_console_script_modules_are_in_the_wheel(names: list[str]) -> None:
-    modules = ("maopg/experiment/train_cli.py", "maopg/experiment/eval_cli.py")
+    modules = ("maopg/experiment/cli/train_cli.py", "maopg/experiment/cli/eval_cli.py")
     if not (REPO / modules[0]).exists():
         pytest.skip(f"{modules[0]} is not written yet: the console scripts have no target")
     for module in modules:

@@ -35,7 +35,7 @@ import numpy as np
 import torch
 
 from maopg.env.rollout import scripted_policy
-from maopg.experiment.loading import load_trained
+from maopg.experiment.evaluation.loading import load_trained
 from maopg.experiment.studies.published import value_at
 from maopg.experiment.studies.runs import load_run
 from maopg.policy import ObsBatch, stack_conditions

@@ -29,11 +29,11 @@ from pathlib import Path
 import torch
 
 from maopg.env.vector import SeededVectorEnv
-from maopg.experiment.config import TrainConfig
-from maopg.experiment.run_dir import CONFIG, FINAL
+from maopg.experiment.run.config import TrainConfig
+from maopg.experiment.run.directory import CONFIG, FINAL
+from maopg.experiment.run.sysinfo import markdown
 from maopg.experiment.studies.runs import RETURN, final, load_run
-from maopg.experiment.sysinfo import markdown
-from maopg.experiment.trainer import build_learner
+from maopg.experiment.training.trainer import build_learner
 from maopg.learner import load_checkpoint
 
 

@@ -16,9 +16,9 @@ from pathlib import Path
 
 import numpy as np
 
+from maopg.experiment.run.sysinfo import markdown
 from maopg.experiment.studies.grid import log_to_stderr, run_grid
 from maopg.experiment.studies.runs import PAPER_METRIC, RETURN, load_run, samples_to_threshold
-from maopg.experiment.sysinfo import markdown
 
 TASK, METHOD = "tool_delivery", "async"
 

@@ -13,10 +13,10 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from maopg.experiment.run.sysinfo import markdown
 from maopg.experiment.studies.grid import log_to_stderr, run_grid
 from maopg.experiment.studies.runs import discover_runs
 from maopg.experiment.studies.tables import peak_table, threshold_table
-from maopg.experiment.sysinfo import markdown
 
 TASK, METHODS = "tool_delivery", ("async", "mac-dqn")
 

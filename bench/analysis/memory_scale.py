@@ -28,8 +28,8 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from maopg.experiment.loading import load_trained
-from maopg.experiment.sysinfo import markdown
+from maopg.experiment.evaluation.loading import load_trained
+from maopg.experiment.run.sysinfo import markdown
 from maopg.policy import ObsBatch
 from maopg.policy.actors import episode_starts
 from maopg.policy.batch import stack_conditions

@@ -28,9 +28,9 @@ import dataclasses
 import sys
 from pathlib import Path
 
-from maopg.experiment.config import TrainConfig
-from maopg.experiment.run_dir import CONFIG, METRICS, TIMING_COLUMNS
-from maopg.experiment.trainer import train
+from maopg.experiment.run.config import TrainConfig
+from maopg.experiment.run.directory import CONFIG, METRICS, TIMING_COLUMNS
+from maopg.experiment.training.trainer import train
 
 
 def _rows(path: Path) -> list[dict[str, str]]:

@@ -32,7 +32,7 @@ import numpy as np
 from maopg.env.ray_backend import ray_available
 from maopg.env.rollout import RandomPolicy
 from maopg.env.vector import EnvConfig, SeededVectorEnv
-from maopg.experiment.sysinfo import markdown
+from maopg.experiment.run.sysinfo import markdown
 
 COLUMNS: dict[str, tuple[str, int, dict[str, bool]]] = {
     "local": ("local", 0, {}),

@@ -26,7 +26,7 @@ import numpy as np
 
 from maopg.env import DecisionPoint, OptionEnv, make_env
 from maopg.env.rollout import RandomPolicy, run_episode
-from maopg.experiment.sysinfo import markdown
+from maopg.experiment.run.sysinfo import markdown
 from td_bench import measure_bare
 
 

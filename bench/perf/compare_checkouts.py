@@ -54,7 +54,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(REPO))  # this tree's sysinfo helper, whatever maopg is installed
 
-from maopg.experiment.sysinfo import markdown  # noqa: E402
+from maopg.experiment.run.sysinfo import markdown  # noqa: E402
 
 DEFAULT_REF = "0c4d129"
 MARK = "@@compare_checkouts@@"

@@ -19,7 +19,7 @@ import numpy as np
 
 from maopg.env import make_env
 from maopg.env.rollout import RandomPolicy, decision_points
-from maopg.experiment.sysinfo import markdown
+from maopg.experiment.run.sysinfo import markdown
 from maopg.sim.culling import cull_outside_view
 from maopg.sim.render import make_renderer
 

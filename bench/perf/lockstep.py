@@ -25,8 +25,8 @@ from pathlib import Path
 import numpy as np
 
 from maopg.env.vector_base import split_envs
-from maopg.experiment.loading import load_trained
-from maopg.experiment.sysinfo import markdown
+from maopg.experiment.evaluation.loading import load_trained
+from maopg.experiment.run.sysinfo import markdown
 
 
 def step_times(checkpoint: Path, envs: int, steps: int) -> tuple[np.ndarray, np.ndarray]:

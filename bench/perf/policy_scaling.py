@@ -108,7 +108,7 @@ def main() -> None:
 
     import torch
 
-    from maopg.experiment.sysinfo import markdown
+    from maopg.experiment.run.sysinfo import markdown
 
     torch.set_num_threads(1)  # what every cell runs with, so the conditions print it
     print("### Policy cost against team size: product categorical vs autoregressive")

@@ -32,10 +32,10 @@ import numpy as np
 import torch
 
 from maopg.env.vector import SeededVectorEnv
-from maopg.experiment.config import TrainConfig
-from maopg.experiment.run_dir import CHECKPOINT
-from maopg.experiment.sysinfo import markdown
-from maopg.experiment.trainer import build_learner
+from maopg.experiment.run.config import TrainConfig
+from maopg.experiment.run.directory import CHECKPOINT
+from maopg.experiment.run.sysinfo import markdown
+from maopg.experiment.training.trainer import build_learner
 from maopg.learner import MAPPOLearner, load_checkpoint
 from maopg.policy import PRECISIONS, NatureCNN, set_precision
 

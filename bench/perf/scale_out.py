@@ -40,9 +40,9 @@ import torch
 
 from maopg.env.rollout import RandomPolicy
 from maopg.env.vector import EnvConfig, SeededVectorEnv
-from maopg.experiment.config import TrainConfig
-from maopg.experiment.sysinfo import markdown
-from maopg.experiment.trainer import build_learner
+from maopg.experiment.run.config import TrainConfig
+from maopg.experiment.run.sysinfo import markdown
+from maopg.experiment.training.trainer import build_learner
 
 
 class TimedBackend:

@@ -19,7 +19,7 @@ import numpy as np
 from maopg.sim.render import CameraRenderer
 from maopg.sim.robots import ASSETS_DIR, get_robot, robot_names
 from maopg.sim.scene import Scene, SceneBuilder, load_spec
-from maopg.experiment.sysinfo import markdown
+from maopg.experiment.run.sysinfo import markdown
 
 TD_TIMESTEP, TD_TICK = 0.02, 1.0
 WF_TICK = 0.5

@@ -1,5 +1,5 @@
 """Fixed start-up costs, old vs new checkout side by side: the wall-clock of
-``import maopg.experiment.trainer`` and of a short Tool Delivery training command.
+``import maopg.experiment.training.trainer`` and of a short Tool Delivery training command.
 
 Run: ``.venv/bin/python bench/perf/startup.py [--ref 4e53a18] [--rounds N]``. Prints a
 Markdown block for BENCHMARKS.md (progress goes to stderr).
@@ -16,7 +16,8 @@ the old and new min–max ranges overlap). One untimed import per side first com
 
 Measured:
 
-- ``import maopg.experiment.trainer`` (what ``python -m train`` imports before it parses);
+- importing the trainer module, ``maopg.experiment.training.trainer`` (``maopg.experiment.trainer``
+  in a checkout before the split into packages; what ``python -m train`` imports before it parses);
 - ``python -m train --task tool_delivery --method async --total-samples 400 video=false
   progress=false``, the same command on both sides (the new side still draws the learning
   curve, as a user's run does);
@@ -56,7 +57,13 @@ TRAIN = (
     "video=false",
     "progress=false",
 )
-IMPORT = "import maopg.experiment.trainer\n"
+IMPORT = (
+    "import importlib, importlib.util\n"
+    "new = importlib.util.find_spec('maopg.experiment.training') is not None\n"
+    "importlib.import_module('maopg.experiment.' + ('training.trainer' if new else 'trainer'))\n"
+)
+"""Imports the trainer module where each checkout has it (``experiment/trainer.py`` before the
+split into packages)."""
 
 
 def timed(
@@ -85,7 +92,7 @@ def main() -> int:
     started = time.perf_counter()
     conditions = markdown()  # before anything runs: its load average is the one at start
     labels = {
-        "import": "`import maopg.experiment.trainer` (s)",
+        "import": "`import` of the trainer module (s)",
         "train": "`python -m train ...` as above (s)",
         "train, plot=false": "the same, new side with `plot=false` (s)",
     }

@@ -24,7 +24,7 @@ import numpy as np
 from maopg.env import make_env
 from maopg.env.rollout import RandomPolicy
 from maopg.sim.render import CameraRenderer
-from maopg.experiment.sysinfo import markdown
+from maopg.experiment.run.sysinfo import markdown
 
 
 def measure_env(images: bool, episodes: int, seed: int = 0) -> tuple[float, int, int, object]:

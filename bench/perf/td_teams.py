@@ -25,7 +25,7 @@ import numpy as np
 from maopg.env import make_env
 from maopg.env.option_env import OptionEnv
 from maopg.env.rollout import EpisodeResult, reference_policy, run_episode
-from maopg.experiment.sysinfo import markdown
+from maopg.experiment.run.sysinfo import markdown
 
 SIZES = ((2, 1, 1), (3, 1, 1), (2, 1, 2), (4, 2, 2), (6, 2, 3))
 """The canonical team first; (6, 2, 3) is the issue's benchmark team of 8 robots."""

@@ -34,11 +34,11 @@ from pathlib import Path
 
 import torch
 
-from maopg.experiment.config import TrainConfig
-from maopg.experiment.run_dir import read_done
+from maopg.experiment.run.config import TrainConfig
+from maopg.experiment.run.directory import read_done
+from maopg.experiment.run.sysinfo import markdown
 from maopg.experiment.studies.runs import RunData, final, load_run, peak
-from maopg.experiment.sysinfo import markdown
-from maopg.experiment.trainer import train
+from maopg.experiment.training.trainer import train
 from maopg.policy import PRECISIONS
 
 TARGET_SAMPLES = 200_000

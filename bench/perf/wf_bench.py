@@ -24,7 +24,7 @@ import numpy as np
 from maopg.env import make_env
 from maopg.env.rollout import reference_policy
 from maopg.sim.render import CameraRenderer
-from maopg.experiment.sysinfo import markdown
+from maopg.experiment.run.sysinfo import markdown
 
 SETTINGS = (
     ("primitive", "random"),

@@ -25,7 +25,7 @@ import numpy as np
 
 from maopg.env import make_env
 from maopg.env.rollout import RandomPolicy, reference_policy, run_episode
-from maopg.experiment.sysinfo import markdown
+from maopg.experiment.run.sysinfo import markdown
 from maopg.sim.planning import dijkstra_cost_to_go, relaxed_cost_to_go
 from maopg.sim.render import CameraRenderer
 from maopg.tasks.water_filling.scene import read_arena

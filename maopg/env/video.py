@@ -461,9 +461,9 @@ def record_episode(
     stepping it again).
 
     The title names the task, the strategy, ``policy_label`` (who acts: ``async seed 2
-    (sampled)``, ``scripted``; :meth:`maopg.experiment.loading.Trained.label`) and the episode's
-    ``seed`` (:func:`video_title`). ``progress`` shows a bar over the ticks on stderr; its total
-    is the bounded length, and it stops early when the episode ends first.
+    (sampled)``, ``scripted``; :meth:`maopg.experiment.evaluation.loading.Trained.label`) and the
+    episode's ``seed`` (:func:`video_title`). ``progress`` shows a bar over the ticks on stderr; its
+    total is the bounded length, and it stops early when the episode ends first.
     """
     import imageio.v2 as imageio
     from tqdm import tqdm

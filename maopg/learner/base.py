@@ -5,7 +5,7 @@ steps the environments (a :class:`~maopg.env.vector.SeededVectorEnv`, which know
 algorithm) for at least ``batch_ticks`` low-level ticks with its own acting rule and learns from
 what it saw. The trainer only counts samples, logs the returned row and checkpoints
 :meth:`state_dict`. A new learner subclasses :class:`Learner`; a method pairs it with a
-termination strategy and a policy builder (``maopg.experiment.methods``).
+termination strategy and a policy builder (``maopg.experiment.run.methods``).
 """
 
 from __future__ import annotations

@@ -22,8 +22,8 @@ import pytest
 
 from maopg.env.rollout import RandomPolicy
 from maopg.env.vector import EnvConfig, SeededVectorEnv, digest
-from maopg.experiment.run_dir import TIMING_COLUMNS
-from maopg.experiment.train_cli import main
+from maopg.experiment.cli.train_cli import main
+from maopg.experiment.run.directory import TIMING_COLUMNS
 
 ray = pytest.importorskip("ray")
 # A parallel run (scripts/test.sh: pytest -n auto --dist loadfile) keeps this module on one
@@ -243,6 +243,6 @@ def test_bad_ray_settings_are_one_line_errors(tmp_path, user_error, setting, mes
 
 
 def test_backend_ray_without_ray_installed_says_how_to_get_it(tmp_path, user_error, monkeypatch):
-    monkeypatch.setattr("maopg.experiment.config.ray_available", lambda: False)
+    monkeypatch.setattr("maopg.experiment.run.config.ray_available", lambda: False)
     args = [*RUN, "--total-samples", "100", "--run-dir", str(tmp_path / "run"), "backend=ray"]
     user_error(main, args, r"backend=ray needs Ray: pip install 'maopg\[ray\]'")

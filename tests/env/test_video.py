@@ -223,7 +223,7 @@ def test_the_panel_lists_each_agents_observation(tmp_path, monkeypatch):
 
 def test_cli_records_the_scripted_episode(tmp_path, capsys, monkeypatch):
     out = tmp_path / "td.mp4"
-    from maopg.experiment.eval_cli import main
+    from maopg.experiment.cli.eval_cli import main
 
     titles = []
     monkeypatch.setattr(video, "video_title", lambda *a: titles.append(a) or video_title(*a))

@@ -18,12 +18,12 @@ import pytest
 
 from maopg.env import make_env
 from maopg.env.pettingzoo import OptionParallelEnv
-from maopg.experiment.eval_cli import main as eval_main
-from maopg.experiment.migration import CONFIG_SCHEMA
+from maopg.experiment.cli.eval_cli import main as eval_main
+from maopg.experiment.cli.train_cli import main as train_main
+from maopg.experiment.cli.train_cli import parse_args
+from maopg.experiment.run.migration import CONFIG_SCHEMA
 from maopg.experiment.studies import get_study
 from maopg.experiment.studies.grid import Cell, cell_config
-from maopg.experiment.train_cli import main as train_main
-from maopg.experiment.train_cli import parse_args
 
 REPO = Path(__file__).resolve().parents[2]
 TINY = ["num_envs=1", "backend=local", "batch_ticks=60", "progress=false", "video=false"]

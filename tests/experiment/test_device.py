@@ -11,11 +11,11 @@ from pathlib import Path
 import pytest
 import torch
 
-from maopg.experiment.config import TrainConfig
-from maopg.experiment.eval_cli import main as eval_main
-from maopg.experiment.loading import load_trained
-from maopg.experiment.run_dir import TIMING_COLUMNS
-from maopg.experiment.train_cli import main as train_main
+from maopg.experiment.cli.eval_cli import main as eval_main
+from maopg.experiment.cli.train_cli import main as train_main
+from maopg.experiment.evaluation.loading import load_trained
+from maopg.experiment.run.config import TrainConfig
+from maopg.experiment.run.directory import TIMING_COLUMNS
 from maopg.policy import draw_multinomial
 
 CUDA = torch.cuda.is_available()

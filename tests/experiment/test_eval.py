@@ -15,11 +15,12 @@ import pytest
 from maopg.env import make_env, video
 from maopg.env.rollout import reference_policy, run_episode
 from maopg.env.video import video_title
-from maopg.experiment.config import RUN_SECTIONS, TrainConfig
-from maopg.experiment.eval_cli import main
-from maopg.experiment.evaluate import evaluate
-from maopg.experiment.loading import load_trained
-from maopg.experiment.run_dir import DONE, FINAL
+from maopg.experiment.cli.eval_cli import main
+from maopg.experiment.cli.train_cli import main as train_main
+from maopg.experiment.evaluation.evaluate import evaluate
+from maopg.experiment.evaluation.loading import load_trained
+from maopg.experiment.run.config import RUN_SECTIONS, TrainConfig
+from maopg.experiment.run.directory import DONE, FINAL
 from maopg.experiment.studies import (
     Study,
     StudyTask,
@@ -45,8 +46,7 @@ from maopg.experiment.studies.runs import (
     trailing_mean,
 )
 from maopg.experiment.studies.tables import peak_table, threshold_table
-from maopg.experiment.train_cli import main as train_main
-from maopg.experiment.trainer import RESUMABLE_KEYS
+from maopg.experiment.training.trainer import RESUMABLE_KEYS
 from maopg.policy import DistributionActor, QActor
 
 RUN = [

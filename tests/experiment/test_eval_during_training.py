@@ -12,14 +12,14 @@ from pathlib import Path
 import pytest
 from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
-from maopg.experiment import trainer
-from maopg.experiment.config import TrainConfig
-from maopg.experiment.eval_cli import main as eval_main
-from maopg.experiment.evaluate import NO_EVALUATION, evaluation_due, evaluation_seeds
-from maopg.experiment.run_dir import EVAL_COLUMNS, TIMING_COLUMNS, RunLog
-from maopg.experiment.run_eta import RunRates, estimate_run
+from maopg.experiment.cli.eval_cli import main as eval_main
+from maopg.experiment.cli.train_cli import main
+from maopg.experiment.evaluation.evaluate import NO_EVALUATION, evaluation_due, evaluation_seeds
+from maopg.experiment.run.config import TrainConfig
+from maopg.experiment.run.directory import EVAL_COLUMNS, TIMING_COLUMNS, RunLog
 from maopg.experiment.studies.runs import load_run
-from maopg.experiment.train_cli import main
+from maopg.experiment.training import trainer
+from maopg.experiment.training.eta import RunRates, estimate_run
 from maopg.learner import load_checkpoint
 
 RUN = ["batch_ticks=60", "num_envs=2", "backend=threads", "env.max_ticks=30", "progress=false"]

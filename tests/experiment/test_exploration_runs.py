@@ -12,10 +12,10 @@ from pathlib import Path
 
 import pytest
 
-from maopg.experiment.config import TrainConfig
-from maopg.experiment.migration import SCHEMA_KEY
-from maopg.experiment.run_dir import TIMING_COLUMNS
-from maopg.experiment.train_cli import main, parse_args
+from maopg.experiment.cli.train_cli import main, parse_args
+from maopg.experiment.run.config import TrainConfig
+from maopg.experiment.run.directory import TIMING_COLUMNS
+from maopg.experiment.run.migration import SCHEMA_KEY
 from maopg.learner import load_checkpoint
 
 RUN = ["--task", "box_pushing_grid", "env.size=4", "batch_ticks=60", "num_envs=2"]

@@ -16,11 +16,11 @@ import pytest
 import torch
 
 from maopg.env.vector import SeededVectorEnv
-from maopg.experiment import methods
-from maopg.experiment.eval_cli import main as eval_main
-from maopg.experiment.methods import Method, register_method
-from maopg.experiment.run_dir import TIMING_COLUMNS
-from maopg.experiment.train_cli import main as train_main
+from maopg.experiment import Method, register_method
+from maopg.experiment.cli.eval_cli import main as eval_main
+from maopg.experiment.cli.train_cli import main as train_main
+from maopg.experiment.run import methods
+from maopg.experiment.run.directory import TIMING_COLUMNS
 from maopg.learner import Learner, LearnerSetup
 from maopg.learner.base import episode_metrics
 from maopg.learner.checkpoint import load_checkpoint

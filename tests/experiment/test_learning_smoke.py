@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 from maopg.env.rollout import evaluate_reference
-from maopg.experiment.config import TrainConfig
-from maopg.experiment.run_dir import read_metrics
-from maopg.experiment.trainer import train
+from maopg.experiment.run.config import TrainConfig
+from maopg.experiment.run.directory import read_metrics
+from maopg.experiment.training.trainer import train
 from maopg.learner import PPOConfig
 
 BUDGET = {"async": 25_000, "async-ar": 25_000, "async-rnn": 35_000}

@@ -1,6 +1,6 @@
-"""Configs and checkpoints of earlier releases load through one step (maopg.experiment.migration):
-every committed run directory, a schema-1 config and a schema-1 checkpoint that resumes bit for
-bit; a schema from the future is one clear line."""
+"""Configs and checkpoints of earlier releases load through one step
+(maopg.experiment.run.migration): every committed run directory, a schema-1 config and a schema-1
+checkpoint that resumes bit for bit; a schema from the future is one clear line."""
 
 from __future__ import annotations
 
@@ -10,10 +10,12 @@ from pathlib import Path
 
 import pytest
 
-from maopg.experiment.config import TrainConfig
-from maopg.experiment.config_file import read_config_file
-from maopg.experiment.loading import load_trained
-from maopg.experiment.migration import (
+from maopg.experiment.cli.train_cli import main
+from maopg.experiment.evaluation.loading import load_trained
+from maopg.experiment.run.config import TrainConfig
+from maopg.experiment.run.config_file import read_config_file
+from maopg.experiment.run.directory import TIMING_COLUMNS
+from maopg.experiment.run.migration import (
     CHECKPOINT_SCHEMA,
     CONFIG_SCHEMA,
     FLAT_PPO_KEYS,
@@ -21,8 +23,6 @@ from maopg.experiment.migration import (
     migrate_checkpoint,
     migrate_config,
 )
-from maopg.experiment.run_dir import TIMING_COLUMNS
-from maopg.experiment.train_cli import main
 from maopg.learner import CheckpointError, MacDQNConfig, PPOConfig, load_checkpoint
 from maopg.learner.checkpoint import save_checkpoint
 

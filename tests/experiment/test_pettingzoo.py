@@ -20,9 +20,9 @@ from maopg.env.pettingzoo import OptionParallelEnv
 from maopg.env.rollout import RandomPolicy, run_episode
 from maopg.env.video import record_episode
 from maopg.experiment import load_policy
-from maopg.experiment.evaluate import evaluate
-from maopg.experiment.loading import load_trained
-from maopg.experiment.train_cli import main as train_main
+from maopg.experiment.cli.train_cli import main as train_main
+from maopg.experiment.evaluation.evaluate import evaluate
+from maopg.experiment.evaluation.loading import load_trained
 from maopg.tasks import registry
 from maopg.tasks.pettingzoo_task import register_pettingzoo
 

@@ -13,7 +13,7 @@ from pathlib import Path
 import imageio.v2 as imageio
 import pytest
 
-from maopg.experiment.eval_cli import main as eval_main
+from maopg.experiment.cli.eval_cli import main as eval_main
 from maopg.plugins import ENV_VAR
 
 REPO = Path(__file__).resolve().parents[2]
@@ -90,7 +90,7 @@ def test_the_environment_variable_and_a_file_path_work_like_import(tmp_path):
     assert by_env.returncode == 0 and "| scripted | berries |" in by_env.stdout, by_env.stderr
     # from elsewhere (no clone on the path): the installed command line and a file, which
     # spawned workers import too (by its absolute path) before they unpickle its classes
-    installed = ["maopg.experiment.eval_cli", *scripted[1:]]
+    installed = ["maopg.experiment.cli.eval_cli", *scripted[1:]]
     plugin = ["--import", "../examples/berries.py"]
     elsewhere = tmp_path / "elsewhere"
     (tmp_path / "examples").mkdir()
@@ -102,7 +102,7 @@ def test_the_environment_variable_and_a_file_path_work_like_import(tmp_path):
     assert by_file.returncode == 0, by_file.stderr
     run = tmp_path / "run"
     train = [
-        "maopg.experiment.train_cli",
+        "maopg.experiment.cli.train_cli",
         *plugin,
         "--task",
         "berries",
@@ -113,7 +113,7 @@ def test_the_environment_variable_and_a_file_path_work_like_import(tmp_path):
     train += ["backend=processes", "num_workers=2", "--total-samples", "400", "--run-dir", str(run)]
     trained = _run(*train, cwd=elsewhere)
     assert trained.returncode == 0, trained.stderr
-    resume = ["maopg.experiment.train_cli", "--resume", "--run-dir", str(run)]
+    resume = ["maopg.experiment.cli.train_cli", "--resume", "--run-dir", str(run)]
     assert _run(*resume, "--total-samples", "800", cwd=REPO).returncode == 0  # another cwd
 
 
@@ -165,7 +165,7 @@ def test_check_robot_runs_a_users_robot_through_the_eval_command_line(capsys):
 def test_a_registration_made_in_the_parent_reaches_spawned_workers(monkeypatch, tmp_path):
     """No plugin module: ``register_task`` called here, then ``backend=processes``."""
     from examples.berries import BerryConfig, BerryField
-    from maopg.experiment.train_cli import main as train_main
+    from maopg.experiment.cli.train_cli import main as train_main
     from maopg.tasks import registry
 
     registry.register_task("inline_berries", BerryField, config=BerryConfig)

@@ -12,12 +12,12 @@ import pytest
 import torch
 
 from maopg.env import make_env
-from maopg.experiment import trainer
-from maopg.experiment.config import TrainConfig
-from maopg.experiment.loading import load_trained
-from maopg.experiment.run_dir import TIMING_COLUMNS
-from maopg.experiment.train_cli import main as train_main
-from maopg.experiment.trainer import build_learner
+from maopg.experiment.cli.train_cli import main as train_main
+from maopg.experiment.evaluation.loading import load_trained
+from maopg.experiment.run.config import TrainConfig
+from maopg.experiment.run.directory import TIMING_COLUMNS
+from maopg.experiment.training import trainer
+from maopg.experiment.training.trainer import build_learner
 from maopg.policy import PRECISIONS, CentralCritic, NatureCNN, ObsBatch, set_precision
 
 TINY = [

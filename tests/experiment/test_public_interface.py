@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from maopg.experiment import eval_cli, train_cli
+from maopg.experiment.cli import eval_cli, train_cli
 
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -1,4 +1,4 @@
-"""The whole run's ETA in the training bar (:mod:`maopg.experiment.run_eta`): the training
+"""The whole run's ETA in the training bar (:mod:`maopg.experiment.training.eta`): the training
 left plus the steps after it, from the rates the run measured."""
 
 from __future__ import annotations
@@ -8,9 +8,10 @@ import re
 import pytest
 
 from maopg.env.video import VIDEO_MAX_TICKS
-from maopg.experiment.config import TrainConfig
-from maopg.experiment.evaluate import EVAL_MAX_TICKS
-from maopg.experiment.run_eta import (
+from maopg.experiment.cli.train_cli import main
+from maopg.experiment.evaluation.evaluate import EVAL_MAX_TICKS
+from maopg.experiment.run.config import TrainConfig
+from maopg.experiment.training.eta import (
     PLOT_SECONDS,
     SETUP_SECONDS,
     VIDEO_SECONDS_PER_FRAME,
@@ -18,7 +19,6 @@ from maopg.experiment.run_eta import (
     about,
     estimate_run,
 )
-from maopg.experiment.train_cli import main
 
 RATES = RunRates(samples_per_s=100.0, collecting_s=3.0, ticks=600, episode_length=120.0)
 """0.005 s a tick of the environments together; episodes of 120 ticks."""

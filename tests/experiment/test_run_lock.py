@@ -1,4 +1,4 @@
-"""One writer per run directory (maopg/experiment/run_lock.py): a second ``train`` on a busy
+"""One writer per run directory (maopg/experiment/run/lock.py): a second ``train`` on a busy
 directory stops with one line and deletes nothing, a killed holder leaves no stale lock, and
 grid invocations share out the cells of one grid (``--jobs``, or several at once) with the
 same curves as one after another."""
@@ -13,12 +13,12 @@ from pathlib import Path
 
 import pytest
 
-from maopg.experiment import run_lock
-from maopg.experiment.run_dir import CONFIG, DONE, TIMING_COLUMNS, read_metrics
-from maopg.experiment.run_lock import RunDirBusy, RunDirLock, held_elsewhere
+from maopg.experiment.cli.train_cli import main as train_main
+from maopg.experiment.run import lock as run_lock
+from maopg.experiment.run.directory import CONFIG, DONE, TIMING_COLUMNS, read_metrics
+from maopg.experiment.run.lock import RunDirBusy, RunDirLock, held_elsewhere
 from maopg.experiment.studies.grid import BUSY, Cell, run_grid
 from maopg.experiment.studies.results import reproduce
-from maopg.experiment.train_cli import main as train_main
 
 TINY = [
     "batch_ticks=60",
@@ -99,7 +99,7 @@ def test_a_killed_holder_leaves_no_stale_lock(tmp_path):
         [
             sys.executable,
             "-c",
-            "import sys, time; from maopg.experiment.run_lock import RunDirLock; "
+            "import sys, time; from maopg.experiment.run.lock import RunDirLock; "
             f"RunDirLock({str(run_dir)!r}).acquire(); print('held', flush=True); time.sleep(60)",
         ],
         stdout=subprocess.PIPE,

@@ -17,10 +17,10 @@ from tensorboard.backend.event_processing.event_accumulator import EventAccumula
 
 from maopg.env import make_env, video
 from maopg.env.rollout import RandomPolicy
-from maopg.experiment import evaluate as evaluation
-from maopg.experiment.eval_cli import main as eval_main
-from maopg.experiment.run_dir import TIMING_COLUMNS
-from maopg.experiment.train_cli import main
+from maopg.experiment.cli.eval_cli import main as eval_main
+from maopg.experiment.cli.train_cli import main
+from maopg.experiment.evaluation import evaluate as evaluation
+from maopg.experiment.run.directory import TIMING_COLUMNS
 from maopg.learner import load_checkpoint, save_checkpoint
 
 RUN = [
@@ -184,8 +184,9 @@ def test_the_video_of_an_endless_episode_is_cut(tmp_path, monkeypatch, capsys):
 
 def test_the_evaluation_of_an_endless_episode_is_cut(tmp_path, monkeypatch, capsys):
     """``env.max_ticks=1000000000``: each episode of the evaluation after training stops at its
-    tick limit (set low here; by default :data:`maopg.experiment.evaluate.EVAL_MAX_TICKS`), a
-    note says so, and TensorBoard has the returns."""
+    tick limit (set low here; by default
+    :data:`maopg.experiment.evaluation.evaluate.EVAL_MAX_TICKS`), a note says so, and TensorBoard
+    has the returns."""
     monkeypatch.setattr(evaluation, "EVAL_MAX_TICKS", 30)
     run_dir = tmp_path / "run"
     _train(run_dir, "--total-samples", "60", "eval_episodes=2", "env.max_ticks=1000000000")

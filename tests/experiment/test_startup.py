@@ -17,7 +17,7 @@ from maopg.policy import ravel_joint, unravel_joint
 HEAVY = ("torch._dynamo", "sympy", "matplotlib")
 RUN = (
     "import json, sys\n"
-    "from maopg.experiment.train_cli import main\n"
+    "from maopg.experiment.cli.train_cli import main\n"
     "root = sys.argv[1]\n"
     "for method, extra in (('async', 'ppo.epochs=2'), ('mac-dqn', 'dqn.learning_starts=60')):\n"
     "    argv = ['--method', method, '--total-samples', '180', 'batch_ticks=60', 'num_envs=2',\n"

@@ -9,7 +9,7 @@ import re
 import pytest
 from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
-from maopg.experiment.train_cli import main as train_main
+from maopg.experiment.cli.train_cli import main as train_main
 
 SHORT = ["batch_ticks=60", "num_envs=2", "env.max_ticks=30", "ppo.epochs=1", "plot=false"]
 

@@ -17,11 +17,11 @@ import pytest
 import torch
 
 from maopg.env.rollout import run_episode
-from maopg.experiment.config import WORKERS_PER_CORE, TrainConfig, parse_overrides
-from maopg.experiment.loading import load_trained
-from maopg.experiment.methods import get_method, method_names
-from maopg.experiment.run_dir import TIMING_COLUMNS
-from maopg.experiment.train_cli import main, parse_args
+from maopg.experiment.cli.train_cli import main, parse_args
+from maopg.experiment.evaluation.loading import load_trained
+from maopg.experiment.run.config import WORKERS_PER_CORE, TrainConfig, parse_overrides
+from maopg.experiment.run.directory import TIMING_COLUMNS
+from maopg.experiment.run.methods import get_method, method_names
 from maopg.learner import CheckpointError, MacDQNConfig, PPOConfig, load_checkpoint
 from maopg.tasks import task_names
 

@@ -15,9 +15,9 @@ from pathlib import Path
 
 import pytest
 
-from maopg.experiment import trainer
-from maopg.experiment.run_dir import TIMING_COLUMNS
-from maopg.experiment.train_cli import main
+from maopg.experiment.cli.train_cli import main
+from maopg.experiment.run.directory import TIMING_COLUMNS
+from maopg.experiment.training import trainer
 
 pytest.importorskip("wandb")
 from wandb.proto import wandb_internal_pb2
@@ -186,7 +186,7 @@ def test_wandb_without_an_account_is_one_line_and_leaves_no_run(tmp_path):
     run_dir = tmp_path / "run"
     env = {k: v for k, v in os.environ.items() if not k.startswith("WANDB_")}
     env.update(HOME=str(tmp_path), WANDB_CONFIG_DIR=str(tmp_path / "wandb-home"))
-    command = [sys.executable, "-m", "maopg.experiment.train_cli", *RUN[:-1], *QUIET]
+    command = [sys.executable, "-m", "maopg.experiment.cli.train_cli", *RUN[:-1], *QUIET]
     done = subprocess.run(
         [*command, "--total-samples", "60", "--run-dir", str(run_dir)],
         env=env,

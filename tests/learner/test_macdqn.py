@@ -18,10 +18,10 @@ import torch
 from maopg.env import make_env
 from maopg.env.contract import AgentSpec, EnvSpec, Strategy
 from maopg.env.rollout import RandomPolicy, run_episode
-from maopg.experiment.config import TrainConfig
-from maopg.experiment.run_dir import TIMING_COLUMNS, read_metrics
-from maopg.experiment.train_cli import main as train_main
-from maopg.experiment.trainer import train
+from maopg.experiment.cli.train_cli import main as train_main
+from maopg.experiment.run.config import TrainConfig
+from maopg.experiment.run.directory import TIMING_COLUMNS, read_metrics
+from maopg.experiment.training.trainer import train
 from maopg.learner.checkpoint import load_checkpoint
 from maopg.learner.macdqn import MacDQN, MacDQNConfig, double_q_target, joint_q_network
 from maopg.learner.replay import SqueezedReplay, point_arrays

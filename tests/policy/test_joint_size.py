@@ -6,7 +6,7 @@ from __future__ import annotations
 import pytest
 import torch
 
-from maopg.experiment.train_cli import main
+from maopg.experiment.cli.train_cli import main
 from maopg.learner.mappo import PPOConfig, update_rows
 from maopg.policy import joint_size
 from maopg.policy.joint_size import (

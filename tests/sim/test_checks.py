@@ -6,7 +6,7 @@ import re
 
 import pytest
 
-from maopg.experiment.eval_cli import main as eval_main
+from maopg.experiment.cli.eval_cli import main as eval_main
 from maopg.sim import robots
 from maopg.sim.checks import check_robot, format_report
 from maopg.sim.robots import ASSETS_DIR, register_robot

@@ -45,7 +45,7 @@ def test_a_robot_registered_from_a_file_is_used_by_name(monkeypatch) -> None:
 
 
 def test_the_eval_cli_swaps_robots_by_config(capsys) -> None:
-    from maopg.experiment.eval_cli import main
+    from maopg.experiment.cli.eval_cli import main
 
     argv = ["evaluate", "--reference", "scripted", "--episodes", "1"]
     assert main([*argv, "env.turtlebot_robot=diffbot"]) == 0

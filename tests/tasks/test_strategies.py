@@ -8,8 +8,8 @@ import pytest
 
 from examples.berries import BerryConfig, BerryField
 from maopg.env import Strategy
-from maopg.experiment.eval_cli import main as eval_main
-from maopg.experiment.train_cli import main as train_main
+from maopg.experiment.cli.eval_cli import main as eval_main
+from maopg.experiment.cli.train_cli import main as train_main
 from maopg.tasks import Task, registry, task_class, task_names
 from maopg.tasks.base import require_strategy
 

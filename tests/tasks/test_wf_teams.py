@@ -230,7 +230,7 @@ def test_impossible_team_settings_are_refused_by_name(overrides, message) -> Non
 
 
 def test_the_command_line_names_a_bad_team_setting_in_one_line(capsys) -> None:
-    from maopg.experiment.eval_cli import main
+    from maopg.experiment.cli.eval_cli import main
 
     argv = ["evaluate", "--reference", "random", "--task", "water_filling", "--episodes", "1"]
     assert main([*argv, "env.jars=0"]) == 2

@@ -7,8 +7,8 @@ and made again only when an input changes: the episode count, the task settings,
 (their sha256), the robot and scene models (``assets/``, their sha256), and the behaviour
 versions that the task, the policy and the evaluator declare
 (:attr:`maopg.tasks.Task.behaviour_version`, :attr:`maopg.policy.OptionPolicy.behaviour_version`,
-:data:`maopg.experiment.evaluate.BEHAVIOUR_VERSION`). A change to the code that leaves every
-behaviour as it was (a refactor, a docstring) leaves the caches valid;
+:data:`maopg.experiment.evaluation.evaluate.BEHAVIOUR_VERSION`). A change to the code that leaves
+every behaviour as it was (a refactor, a docstring) leaves the caches valid;
 ``tests/test_behaviour_versions.py`` catches a behaviour that changed while its version did not.
 """
 
@@ -20,7 +20,7 @@ import json
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
-from maopg.experiment.evaluate import BEHAVIOUR_VERSION as EVALUATOR_VERSION
+from maopg.experiment.evaluation.evaluate import BEHAVIOUR_VERSION as EVALUATOR_VERSION
 from maopg.sim.assets import ASSETS_DIR
 from maopg.tasks import task_class
 

@@ -5,7 +5,7 @@ The grid (:mod:`maopg.experiment.studies.grid`) writes the cell's config (as a r
 ``{"config": {...}, "resume": false}``. The process imports the config's plugins, rebuilds the
 config and calls the training function; a user error ends it with one line and exit status 2,
 as the train command line does. The cell's lock comes from the grid
-(:func:`maopg.experiment.run_lock.child_environment`).
+(:func:`maopg.experiment.run.lock.child_environment`).
 """
 
 from __future__ import annotations
@@ -13,15 +13,15 @@ from __future__ import annotations
 import json
 import sys
 
-from maopg.experiment.command_line import run_command
-from maopg.experiment.config import TrainConfig
+from maopg.experiment.run.config import TrainConfig
+from maopg.experiment.run.errors import reporting_user_errors
 from maopg.plugins import load_plugins
 
 PROG = "maopg.experiment.studies.cell"
 
 
-def _train_cell(_argv: list[str], _plugins: list[str]) -> int:
-    from maopg.experiment.trainer import train
+def _train_cell() -> int:
+    from maopg.experiment.training.trainer import train
 
     request = json.loads(sys.stdin.read())
     load_plugins(request["config"].get("plugins", []))
@@ -30,4 +30,4 @@ def _train_cell(_argv: list[str], _plugins: list[str]) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(run_command(PROG, [], _train_cell))
+    sys.exit(reporting_user_errors(PROG, _train_cell))

@@ -8,11 +8,11 @@ Each cell is one training run in ``<runs>/<task>/<method>/seed<seed>``:
   clone of the repository keeps no checkpoints), starts again;
 - **new**: started.
 
-The grid builds each cell's :class:`~maopg.experiment.config.TrainConfig` from the study's
+The grid builds each cell's :class:`~maopg.experiment.run.config.TrainConfig` from the study's
 typed settings (:func:`cell_config`) and calls the training function with it: in this process
 (``in_process=True``; the tests), or in a subprocess per cell, one after another or ``jobs`` at
 a time, so a crash or an out-of-memory kill loses one run, not the grid. A cell's run directory
-is locked while it trains (:mod:`maopg.experiment.run_lock`), so several invocations over one
+is locked while it trains (:mod:`maopg.experiment.run.lock`), so several invocations over one
 grid share its cells out.
 
 An unknown task or method is an error before anything runs (a typo must not pass as an empty
@@ -32,17 +32,17 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from maopg.experiment.config import (
+from maopg.experiment.run.config import (
     TrainConfig,
     merge,
     nest_settings,
     parse_overrides,
     unset_run,
 )
-from maopg.experiment.config_file import read_config_file
-from maopg.experiment.methods import method_names
-from maopg.experiment.run_dir import CONFIG, DONE
-from maopg.experiment.run_lock import RunDirBusy, RunDirLock, child_environment, held_elsewhere
+from maopg.experiment.run.config_file import read_config_file
+from maopg.experiment.run.directory import CONFIG, DONE
+from maopg.experiment.run.lock import RunDirBusy, RunDirLock, child_environment, held_elsewhere
+from maopg.experiment.run.methods import method_names
 from maopg.experiment.studies.registry import PAPER, Study, get_study
 from maopg.plugins import load_plugins
 
@@ -128,12 +128,12 @@ def check_cells(
 
 
 BUSY = "busy: another process is training it"
-"""The outcome of a cell whose run directory another process holds (maopg.experiment.run_lock)."""
+"""The outcome of a cell whose run directory another process holds (maopg.experiment.run.lock)."""
 
 
 def _train_in_process(config: TrainConfig, resume: bool) -> str:
     """Train one cell in this process; ``done`` or ``failed: <why>``."""
-    from maopg.experiment.trainer import train
+    from maopg.experiment.training.trainer import train
 
     try:
         train(config, resume=resume)
@@ -203,7 +203,7 @@ def run_grid(
 
     Each cell's run directory is locked before its training starts and until it ends, so
     several invocations over the same grid on one machine share out its cells: each skips the
-    cells another holds (the lock is one machine's, :mod:`maopg.experiment.run_lock`)."""
+    cells another holds (the lock is one machine's, :mod:`maopg.experiment.run.lock`)."""
     if jobs < 1:
         raise ValueError(f"jobs must be at least 1, got {jobs}")
     if jobs > 1 and in_process:

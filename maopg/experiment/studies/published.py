@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from maopg.experiment.run_dir import EVAL_COLUMNS
+from maopg.experiment.run.directory import EVAL_COLUMNS
 from maopg.experiment.studies.plots import METHOD_COLOURS, RECURRENT_SUFFIX
 from maopg.experiment.studies.runs import RunData, Summary, base_method, mean_curve
 from maopg.experiment.studies.tables import format_summary, markdown_table, selected_groups

@@ -6,7 +6,7 @@ camera observations). Everything a study adds to a task or a method lives here, 
 task or method registries: those describe what a task and a method are, a study what one
 experiment does with them. Settings are typed values under their command-line names
 (``{"total_samples": 1_000_000, "ppo.option_history": True}``): the grid builds each run's
-:class:`~maopg.experiment.config.TrainConfig` from them directly.
+:class:`~maopg.experiment.run.config.TrainConfig` from them directly.
 
 Each study answers one question and keeps its runs and results in a folder of its own
 (``results/<study>/``; the ``paper`` study's are ``results/runs`` and ``results/``), so no two

@@ -17,9 +17,9 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from maopg.experiment.evaluate import evaluate, results_table
-from maopg.experiment.run_dir import FINAL
-from maopg.experiment.run_lock import held_elsewhere
+from maopg.experiment.evaluation.evaluate import evaluate, results_table
+from maopg.experiment.run.directory import FINAL
+from maopg.experiment.run.lock import held_elsewhere
 from maopg.experiment.studies.cache import behaviour, cached, sha256
 from maopg.experiment.studies.grid import BUSY, Cell, run_grid
 from maopg.experiment.studies.plots import curve_table, plot_task
@@ -29,7 +29,7 @@ from maopg.experiment.studies.runs import RunData, differing_settings, discover_
 from maopg.experiment.studies.tables import normalised_table, peak_table, threshold_table
 
 if TYPE_CHECKING:
-    from maopg.experiment.loading import Trained
+    from maopg.experiment.evaluation.loading import Trained
 
 REFERENCE_STRATEGIES = ("continue", "any", "all")
 EVALUATION = "evaluation.json"
@@ -215,7 +215,7 @@ def write_evaluation(
     """``evaluation.md``: the ``reference`` policies (:func:`study_references`) and
     :func:`policy_results` of every seed-0 run that kept its weights (cached in the run
     directory's ``evaluation.json``)."""
-    from maopg.experiment.loading import load_trained
+    from maopg.experiment.evaluation.loading import load_trained
 
     out = Path(results_dir)
     summaries: list[dict] = []

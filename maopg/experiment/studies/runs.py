@@ -32,10 +32,10 @@ from typing import Any
 
 import numpy as np
 
-from maopg.experiment.config import TrainConfig
-from maopg.experiment.config_file import read_config_file
-from maopg.experiment.methods import get_method
-from maopg.experiment.run_dir import CONFIG, DONE, METRICS
+from maopg.experiment.run.config import TrainConfig
+from maopg.experiment.run.config_file import read_config_file
+from maopg.experiment.run.directory import CONFIG, DONE, METRICS
+from maopg.experiment.run.methods import get_method
 
 RETURN = "episode_return"
 PAPER_METRIC = "option_step_reward"
@@ -214,7 +214,7 @@ def _foreign_sections(method: str) -> tuple[str, ...]:
     are nothing a run learnt from. None for a method that is not registered here (a plugin's
     that is not imported). The registry is imported here only: it brings torch, which the
     curves and tables need nowhere else."""
-    from maopg.experiment.methods import get_method, section_classes
+    from maopg.experiment.run.methods import get_method, section_classes
 
     try:
         own = get_method(method).section

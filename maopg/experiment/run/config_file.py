@@ -15,7 +15,7 @@ from typing import Any
 
 import yaml
 
-from maopg.experiment.migration import migrate_config
+from maopg.experiment.run.migration import migrate_config
 
 CONFIG_FORMATS = {".json": "JSON", ".yaml": "YAML", ".yml": "YAML"}
 """Config file suffixes and the format each is read as."""
@@ -35,8 +35,8 @@ _YAMLLoader.add_implicit_resolver(
 
 def read_config_file(path: str | Path) -> dict[str, Any]:
     """The settings of a ``.yaml``/``.yml``/``.json`` config file as
-    :func:`maopg.experiment.config.merge` takes them (:func:`nest_settings`), in the current
-    schema (:func:`~maopg.experiment.migration.migrate_config`: a run directory of an earlier
+    :func:`maopg.experiment.run.config.merge` takes them (:func:`nest_settings`), in the current
+    schema (:func:`~maopg.experiment.run.migration.migrate_config`: a run directory of an earlier
     release reads as today's); an unreadable file, bad syntax, anything but a mapping or a
     schema this version does not know is a ``ValueError`` naming the file. Values keep the
     file's kinds: the config checks them."""

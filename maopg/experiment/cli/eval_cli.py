@@ -35,14 +35,14 @@ exit_if_mujoco_cannot_import("python -m eval")
 
 from maopg.env.contract import Strategy
 from maopg.env.rollout import REFERENCE_POLICIES
-from maopg.experiment.command_line import Parser, add_common_options, at_least, run_command
+from maopg.experiment.cli.command_line import Parser, add_common_options, at_least, run_command
 from maopg.sim.checks import add_check_robot_arguments, cmd_check_robot
 
 PROG = "python -m eval"
 
 
 def _policy_args(parser: argparse.ArgumentParser) -> None:
-    from maopg.experiment.config import DEVICES
+    from maopg.experiment.run.config import DEVICES
 
     source = parser.add_mutually_exclusive_group(required=True)
     source.add_argument("--checkpoint", type=Path, help="checkpoint file or run directory")
@@ -127,7 +127,7 @@ def _retired_set(args: argparse.Namespace, prefix: str) -> None:
 
 def _task_settings(args: argparse.Namespace) -> dict[str, Any]:
     """``env.KEY=VALUE`` arguments → a reference policy's task settings."""
-    from maopg.experiment.config import parse_task_settings
+    from maopg.experiment.run.config import parse_task_settings
 
     _retired_set(args, "env.")
     for item in args.settings:
@@ -147,7 +147,7 @@ def _policy_and_env(args: argparse.Namespace):
 
     settings = _task_settings(args)
     if args.checkpoint is not None:
-        from maopg.experiment.loading import load_trained
+        from maopg.experiment.evaluation.loading import load_trained
 
         given = [f"--{k}" for k in ("task", "strategy") if getattr(args, k)]
         given += ["env.KEY=VALUE"] if settings else []
@@ -172,7 +172,7 @@ def _policy_and_env(args: argparse.Namespace):
 
 
 def _thresholds(items: list[str]) -> dict[str, float]:
-    from maopg.experiment.config import split_assignment
+    from maopg.experiment.run.config import split_assignment
 
     out = {}
     for item in items:
@@ -187,7 +187,12 @@ def _thresholds(items: list[str]) -> dict[str, float]:
 
 
 def cmd_evaluate(args: argparse.Namespace) -> int:
-    from maopg.experiment.evaluate import choices_lines, evaluate, results_table, write_result
+    from maopg.experiment.evaluation.evaluate import (
+        choices_lines,
+        evaluate,
+        results_table,
+        write_result,
+    )
 
     label, _, env, policy = _policy_and_env(args)
     try:
@@ -327,7 +332,7 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from maopg.experiment.methods import method_names
+    from maopg.experiment.run.methods import method_names
     from maopg.experiment.studies import PAPER, get_study, study_names
 
     paper = get_study(PAPER)

@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from maopg.experiment.wandb_log import WandbMirror
+    from maopg.experiment.run.wandb_log import WandbMirror
 
 CONFIG = "config.json"
 METRICS = "metrics.csv"
@@ -28,7 +28,7 @@ TENSORBOARD = "tb"
 CHECKPOINT = "checkpoint.pt"
 """Everything needed to resume, written every ``checkpoint_every`` iterations (large)."""
 FINAL = "final.pt"
-"""The trained weights (what :func:`maopg.experiment.loading.load_trained` reads)."""
+"""The trained weights (what :func:`maopg.experiment.evaluation.loading.load_trained` reads)."""
 CURVE = "learning_curve.png"
 VIDEO = "rollout.mp4"
 DONE = "done.json"
@@ -42,7 +42,7 @@ EVAL_COLUMNS = ("eval_return", "eval_return_std", "eval_success", "eval_length")
 """The columns of the evaluation during training (``eval_every``): the mean and standard
 deviation of its episodes' returns, their success rate and mean length (ticks). Only a run
 with ``eval_every`` > 0 writes them, ``nan`` in the rows without an evaluation
-(:mod:`maopg.experiment.evaluate`)."""
+(:mod:`maopg.experiment.evaluation.evaluate`)."""
 
 
 def _format(value: Any) -> str:
@@ -63,7 +63,7 @@ def scalar_tag(column: str) -> str:
 class RunLog:
     """Appends one row per iteration to ``metrics.csv`` and mirrors it to TensorBoard.
 
-    ``columns`` are the method's (:attr:`maopg.experiment.methods.Method.columns`), then the
+    ``columns`` are the method's (:attr:`maopg.experiment.run.methods.Method.columns`), then the
     evaluation's (:data:`EVAL_COLUMNS`) where the run has them: the first two, iteration and
     samples, index the rows; the rest become TensorBoard scalars over samples
     (:func:`scalar_tag`). ``resume_samples`` is the sample count of the checkpoint a resumed run
@@ -71,7 +71,7 @@ class RunLog:
     a column the earlier rows lack (the evaluation's, switched on at the resume) is ``nan`` in
     them. Without it the run starts from its beginning, and no row or event of an earlier
     attempt survives. With ``mirror`` (``logger=wandb``) the scalars go to W&B too, which keeps
-    its own rule for resumed runs (:mod:`maopg.experiment.wandb_log`).
+    its own rule for resumed runs (:mod:`maopg.experiment.run.wandb_log`).
     """
 
     def __init__(

@@ -18,7 +18,7 @@ first and ``key=value`` overrides it.
 
 MAPPO's hyper-parameters used to be flat fields (``epochs=5``): on the command line the flat
 keys stay accepted for one release, with a deprecation message; saved configs of any earlier
-release are brought to today's layout when read (:mod:`maopg.experiment.migration`).
+release are brought to today's layout when read (:mod:`maopg.experiment.run.migration`).
 """
 
 from __future__ import annotations
@@ -38,11 +38,11 @@ import torch
 from maopg.env import check_overrides
 from maopg.env.ray_backend import INSTALL_HINT, RayOptions, ray_available
 from maopg.env.vector import BACKENDS, EnvConfig
-from maopg.experiment.config_file import read_config_file
-from maopg.experiment.methods import get_method, section_classes
-from maopg.experiment.migration import CONFIG_SCHEMA, FLAT_PPO_KEYS, SCHEMA_KEY
-from maopg.experiment.wandb_log import INSTALL_HINT as WANDB_HINT
-from maopg.experiment.wandb_log import WandbOptions, wandb_available
+from maopg.experiment.run.config_file import read_config_file
+from maopg.experiment.run.methods import get_method, section_classes
+from maopg.experiment.run.migration import CONFIG_SCHEMA, FLAT_PPO_KEYS, SCHEMA_KEY
+from maopg.experiment.run.wandb_log import INSTALL_HINT as WANDB_HINT
+from maopg.experiment.run.wandb_log import WandbOptions, wandb_available
 from maopg.policy import PRECISIONS
 from maopg.settings import Settings, setting
 from maopg.sim.egl_check import gl_problem
@@ -115,7 +115,7 @@ class TrainConfig(Settings):
     logger: str = setting("tensorboard", choices=LOGGERS)
     """Where the per-iteration record goes besides ``metrics.csv``: ``tensorboard`` (always
     written) or ``wandb``, which mirrors it to Weights & Biases as well (the optional extra
-    ``maopg[wandb]``; the ``wandb.*`` settings, :mod:`maopg.experiment.wandb_log`)."""
+    ``maopg[wandb]``; the ``wandb.*`` settings, :mod:`maopg.experiment.run.wandb_log`)."""
     wandb: WandbOptions = field(default_factory=WandbOptions)
     """The W&B project, entity, group and mode of ``logger=wandb`` (:class:`WandbOptions`)."""
     gamma: float = setting(0.99, ge=0.0, le=1.0)
@@ -160,12 +160,12 @@ class TrainConfig(Settings):
     episodes in an environment of its own, and that row's ``eval_return``, ``eval_return_std``,
     ``eval_success`` and ``eval_length`` hold the outcome (``nan`` in the other rows). 0 (the
     default) evaluates nothing and writes no such column. The episodes and the draws come
-    from seeds of their own (:func:`maopg.experiment.evaluate.evaluation_seeds`), so the
+    from seeds of their own (:func:`maopg.experiment.evaluation.evaluate.evaluation_seeds`), so the
     training columns are the same bit for bit with it on or off."""
     eval_during_episodes: int = setting(10, ge=1)
     """Episodes per evaluation during training (``eval_every``), each bounded at
-    :data:`~maopg.experiment.evaluate.EVAL_MAX_TICKS` ticks as the final evaluation's; 10 as
-    ACAC evaluates for its published curves."""
+    :data:`~maopg.experiment.evaluation.evaluate.EVAL_MAX_TICKS` ticks as the final evaluation's; 10
+    as ACAC evaluates for its published curves."""
     eval_during_sample: bool = True
     """Evaluation during training samples its options from the policy, as published curves do
     (ACAC samples from its softmax; Mac-DQN: ε-greedy at its final ε); ``false`` takes the
@@ -282,7 +282,7 @@ class TrainConfig(Settings):
     @staticmethod
     def from_dict(data: dict[str, Any]) -> TrainConfig:
         """Inverse of :meth:`to_dict` (a config of an earlier release is brought to this
-        layout when its file is read: :mod:`maopg.experiment.migration`). The method's section
+        layout when its file is read: :mod:`maopg.experiment.run.migration`). The method's section
         may be partial or missing: what it leaves unset takes the task's defaults for it, then
         the method's settings, then the learner's own (:meth:`Method.default_config`)."""
         values = dict(data)

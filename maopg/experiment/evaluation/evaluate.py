@@ -28,7 +28,7 @@ from tqdm import tqdm
 
 from maopg.env import DecisionPoint, OptionEnv
 from maopg.env.rollout import ReferencePolicy, run_episode
-from maopg.experiment.run_dir import EVAL_COLUMNS
+from maopg.experiment.run.directory import EVAL_COLUMNS
 
 BEHAVIOUR_VERSION = 1
 """The version of what :func:`evaluate` computes from the episodes it plays (which episodes, how
@@ -196,7 +196,7 @@ def evaluation_seeds(run_seed: int, index: int) -> tuple[int, int]:
 
 
 def evaluation_row(result: EvalResult) -> dict[str, float]:
-    """The :data:`~maopg.experiment.run_dir.EVAL_COLUMNS` of an evaluation's ``result``."""
+    """The :data:`~maopg.experiment.run.directory.EVAL_COLUMNS` of an evaluation's ``result``."""
     summary = result.summary
     keys = ("return_mean", "return_std", "success_rate", "length_mean")
     return {column: summary[key] for column, key in zip(EVAL_COLUMNS, keys, strict=True)}

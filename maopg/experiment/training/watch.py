@@ -8,7 +8,7 @@ Filling's greedy vehicle picks ``Fill(0)`` 99% of the time) while it happens, wh
 alone does not.
 
 It also times the collection and keeps the lengths of the episodes that end, for the whole
-run's ETA (:mod:`maopg.experiment.run_eta`): what the evaluation after training will cost.
+run's ETA (:mod:`maopg.experiment.training.eta`): what the evaluation after training will cost.
 """
 
 from __future__ import annotations

@@ -23,7 +23,7 @@ import numpy as np
 
 from maopg.env import DecisionPoint, OptionEnv
 from maopg.env.pettingzoo import OptionParallelEnv, decision_point
-from maopg.experiment.loading import Trained, load_trained
+from maopg.experiment.evaluation.loading import Trained, load_trained
 from maopg.learner import Actor
 
 

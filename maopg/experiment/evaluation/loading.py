@@ -2,7 +2,7 @@
 
 A checkpoint (``final.pt`` or ``checkpoint.pt`` from ``python -m train``) stores the resolved
 training config and the acting network's weights, and the config names the method, whose
-registry entry (:mod:`maopg.experiment.methods`) says how to rebuild that network and how it
+registry entry (:mod:`maopg.experiment.run.methods`) says how to rebuild that network and how it
 acts — so nothing needs to be given twice, and a user's method loads like a built-in one.
 """
 
@@ -15,10 +15,10 @@ from pathlib import Path
 from torch import nn
 
 from maopg.env import EnvSpec, OptionEnv
-from maopg.experiment.config import TrainConfig
-from maopg.experiment.methods import Method, get_method
-from maopg.experiment.migration import migrate_checkpoint
-from maopg.experiment.run_dir import CHECKPOINT, FINAL
+from maopg.experiment.run.config import TrainConfig
+from maopg.experiment.run.directory import CHECKPOINT, FINAL
+from maopg.experiment.run.methods import Method, get_method
+from maopg.experiment.run.migration import migrate_checkpoint
 from maopg.learner import Actor, CheckpointError, fitting, load_checkpoint
 from maopg.plugins import load_plugins
 from maopg.policy import set_precision

@@ -2,12 +2,9 @@
 
 Plugins (``--import MODULE``, repeatable, anywhere on the line; :mod:`maopg.plugins`) are
 imported *before* the real parser is built, because the parser's choices — tasks, methods — are
-the registries', which a plugin extends. A mistake of the user's (a bad setting, a missing run
-directory, a plugin that fails to import) ends the command with one line naming it and exit
-status 2; ``--debug`` shows the traceback instead. A training run that went non-finite (NaN or
-infinity in a loss, gradient or weight) ends the same way: its settings, not the code, are at
-fault. So does a machine that cannot render what the command needs (``MUJOCO_GL`` and its
-libraries, a display for ``glfw``): its setup, not the code.
+the registries', which a plugin extends. A mistake of the user's ends the command with one line
+naming it and exit status 2 (:mod:`maopg.experiment.run.errors`); ``--debug`` shows the
+traceback instead.
 """
 
 from __future__ import annotations
@@ -17,9 +14,8 @@ import sys
 from collections.abc import Callable, Sequence
 from typing import NoReturn
 
-from maopg.learner import CheckpointError, NonFiniteError
-from maopg.plugins import PluginError, load_plugins
-from maopg.sim.render import RenderError
+from maopg.experiment.run.errors import reporting_user_errors
+from maopg.plugins import load_plugins
 
 
 class UsageError(ValueError):
@@ -45,23 +41,6 @@ def at_least(minimum: int) -> Callable[[str], int]:
         return value
 
     return integer
-
-
-USER_ERRORS = (
-    ValueError,
-    KeyError,
-    FileNotFoundError,
-    FileExistsError,
-    NotADirectoryError,
-    IsADirectoryError,
-    PermissionError,
-    CheckpointError,
-    NonFiniteError,
-    PluginError,
-    RenderError,
-)
-"""What a user's input can cause (the path errors: a file or directory the user named); anything
-else is a bug and keeps its traceback."""
 
 
 def preparse(argv: Sequence[str] | None) -> tuple[argparse.Namespace, list[str]]:
@@ -93,12 +72,6 @@ def run_command(
     """Load the plugins of ``argv``, then ``command(remaining arguments, plugins imported by
     name)``; a user error prints ``prog: error: ...`` and returns 2 (unless ``--debug``)."""
     early, rest = preparse(argv)
-    try:
-        plugins = load_plugins(early.plugins)
-        return command(rest, plugins)
-    except USER_ERRORS as err:
-        if early.debug:
-            raise
-        message = err.args[0] if isinstance(err, KeyError) and err.args else err
-        print(f"{prog}: error: {message}", file=sys.stderr)
-        return 2
+    return reporting_user_errors(
+        prog, lambda: command(rest, load_plugins(early.plugins)), debug=early.debug
+    )

@@ -19,7 +19,7 @@ from typing import Any
 from torch import nn
 
 from maopg.env.contract import EnvSpec, Strategy
-from maopg.experiment.run_dir import TIMING_COLUMNS
+from maopg.experiment.run.directory import TIMING_COLUMNS
 from maopg.learner import SHARED_COLUMNS, Learner, MacDQNLearner, MAPPOLearner
 from maopg.learner.macdqn import joint_q_network
 from maopg.learner.mappo import (

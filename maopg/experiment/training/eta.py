@@ -1,5 +1,6 @@
 """The whole run's ETA, shown in the training bar: the training that is left plus the steps
-after it (:func:`maopg.experiment.trainer.after_training`), from what this run has measured.
+after it (:func:`maopg.experiment.training.trainer.after_training`), from what this run has
+measured.
 
 The training left includes the evaluations during training still due (``eval_every``), at the
 mean time of this session's evaluations, or estimated as their episodes until one has run;
@@ -9,11 +10,11 @@ The bar's own ETA covers the samples only, yet a run is not over when they are: 
 evaluation, the video and its GIF, the plot take their time (about 30 s on Tool Delivery's
 defaults, minutes on Water Filling). Their cost is estimated from the run's own measurements —
 the training rate, the time one environment tick takes while collecting (acting and stepping,
-timed by :class:`maopg.experiment.watch.StepWatch`) and the mean length of the episodes seen
-in training — plus a per-frame cost of the video that training never measures (it renders no
-overview), a constant measured once. It is an estimate, labelled as one: a greedy policy's
-episodes may be longer than the training's, and a parallel backend's tick cost per environment
-is taken as if its environments ran fully in parallel (the conservative side).
+timed by :class:`maopg.experiment.training.watch.StepWatch`) and the mean length of the
+episodes seen in training — plus a per-frame cost of the video that training never measures (it
+renders no overview), a constant measured once. It is an estimate, labelled as one: a greedy
+policy's episodes may be longer than the training's, and a parallel backend's tick cost per
+environment is taken as if its environments ran fully in parallel (the conservative side).
 """
 
 from __future__ import annotations
@@ -21,8 +22,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from maopg.env.video import VIDEO_MAX_TICKS
-from maopg.experiment.config import TrainConfig
-from maopg.experiment.evaluate import EVAL_MAX_TICKS
+from maopg.experiment.evaluation.evaluate import EVAL_MAX_TICKS
+from maopg.experiment.run.config import TrainConfig
 
 VIDEO_SECONDS_PER_FRAME = 0.3
 """Rendering, encoding and the TensorBoard GIF of one video frame, beyond the tick itself,
@@ -30,7 +31,7 @@ measured on the 2-core development machine on Tool Delivery (whose overview cost
 Water Filling's does: :data:`maopg.env.video.VIDEO_MAX_TICKS`). With two other jobs running,
 ``time python -m eval video --reference random --task tool_delivery --no-progress --out v.mp4``
 took 27 s for 151 frames, 3 s of it start-up (0.15 s a frame), and
-:func:`maopg.experiment.tb_video.add_video` 4.2 s on that file (0.03 s a frame); inside a
+:func:`maopg.experiment.run.tb_video.add_video` 4.2 s on that file (0.03 s a frame); inside a
 default training run (``python -m train --task tool_delivery --total-samples 1600``) on a
 busier machine the video bar ran at 3.3 frames/s (0.30 s) and the GIF at 0.045 s a frame. The
 busier figure is taken: the estimate errs long rather than short."""

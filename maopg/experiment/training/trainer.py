@@ -33,12 +33,10 @@ from maopg.env import OptionEnv
 from maopg.env.contract import EnvSpec
 from maopg.env.vector import SeededVectorEnv
 from maopg.env.video import record_episode
-from maopg.experiment import evaluate as evaluation
-from maopg.experiment.config import RUN_SECTIONS, TrainConfig
-from maopg.experiment.loading import load_trained
-from maopg.experiment.methods import get_method
-from maopg.experiment.migration import CHECKPOINT_SCHEMA, SCHEMA_KEY, migrate_checkpoint
-from maopg.experiment.run_dir import (
+from maopg.experiment.evaluation import evaluate as evaluation
+from maopg.experiment.evaluation.loading import load_trained
+from maopg.experiment.run.config import RUN_SECTIONS, TrainConfig
+from maopg.experiment.run.directory import (
     CHECKPOINT,
     CONFIG,
     CURVE,
@@ -55,12 +53,14 @@ from maopg.experiment.run_dir import (
     scalar_tag,
     write_done,
 )
-from maopg.experiment.run_eta import RunRates, about, estimate_run
-from maopg.experiment.run_lock import RunDirLock
-from maopg.experiment.sysinfo import BF16_FLAGS, bf16_instructions
-from maopg.experiment.tb_video import add_video
-from maopg.experiment.wandb_log import WandbMirror
-from maopg.experiment.watch import StepWatch
+from maopg.experiment.run.lock import RunDirLock
+from maopg.experiment.run.methods import get_method
+from maopg.experiment.run.migration import CHECKPOINT_SCHEMA, SCHEMA_KEY, migrate_checkpoint
+from maopg.experiment.run.sysinfo import BF16_FLAGS, bf16_instructions
+from maopg.experiment.run.tb_video import add_video
+from maopg.experiment.run.wandb_log import WandbMirror
+from maopg.experiment.training.eta import RunRates, about, estimate_run
+from maopg.experiment.training.watch import StepWatch
 from maopg.learner import (
     CheckpointError,
     Learner,
@@ -333,15 +333,15 @@ def _stopped(
 class TrainingEvaluation:
     """The evaluation during training (``eval_every``): the evaluation columns of each
     iteration's row, the outcome of an evaluation where one is due
-    (:func:`~maopg.experiment.evaluate.evaluation_due`) and ``nan`` elsewhere.
+    (:func:`~maopg.experiment.evaluation.evaluate.evaluation_due`) and ``nan`` elsewhere.
 
-    An evaluation plays :func:`~maopg.experiment.evaluate.evaluate` in an environment of its
-    own (built at the first one, in this process whatever the backend) with a CPU copy of the
+    An evaluation plays :func:`~maopg.experiment.evaluation.evaluate.evaluate` in an environment of
+    its own (built at the first one, in this process whatever the backend) with a CPU copy of the
     learner's acting network, acting as every trained policy acts (:meth:`Learner.actor`:
     sampled, Mac-DQN ε-greedy at its final ε; greedy with ``eval_during_sample=false``), from
-    the evaluation's own seeds (:func:`~maopg.experiment.evaluate.evaluation_seeds`). It touches
-    nothing the training reads — the learner's network, the training's environments and their
-    episode counters, its generators — and the global RNGs are restored after it, should a
+    the evaluation's own seeds (:func:`~maopg.experiment.evaluation.evaluate.evaluation_seeds`). It
+    touches nothing the training reads — the learner's network, the training's environments and
+    their episode counters, its generators — and the global RNGs are restored after it, should a
     task's code draw from them: the training columns are the same bit for bit with evaluation
     on or off. An evaluation depends only on the weights and its index, so a resumed run
     evaluates as an uninterrupted one.
@@ -423,8 +423,8 @@ def train(config: TrainConfig, *, resume: bool = False, overwrite: bool = False)
     Everything that can be checked is checked before the first file is written — the config,
     whether the machine can render what the run renders, the run directory, the networks and
     learner it builds — so a failed start leaves nothing that blocks the corrected command.
-    The run directory stays locked while this runs (:mod:`maopg.experiment.run_lock`): another
-    process that names it stops with :class:`~maopg.experiment.run_lock.RunDirBusy`. An
+    The run directory stays locked while this runs (:mod:`maopg.experiment.run.lock`): another
+    process that names it stops with :class:`~maopg.experiment.run.lock.RunDirBusy`. An
     existing directory is locked before what it holds is read, a new one once it is created.
     """
     config = config.resolved()
@@ -610,7 +610,7 @@ def after_training_plan(config: TrainConfig, estimate: float | None = None) -> s
     the training bar (about 30 s for Tool Delivery's defaults on 2 cores, README "Progress")
     is announced rather than silent; empty when nothing follows. ``estimate``: the seconds
     these steps should take, from the rates the training measured
-    (:func:`maopg.experiment.run_eta.after_training_seconds`, the part of the training bar's
+    (:func:`maopg.experiment.training.eta.after_training_seconds`, the part of the training bar's
     ``run done in ~...`` that follows the samples), said as an estimate; each step's own bar
     then gives its ETA from its own measured rate.
     """
@@ -643,8 +643,8 @@ def after_training(
     The policy is loaded back from ``final.pt`` the way ``python -m eval`` loads it, so what is
     reported is what the saved checkpoint does. The video's length is bounded
     (:data:`maopg.env.video.VIDEO_MAX_TICKS`) whatever the task's ``max_ticks``, and so is
-    each evaluation episode's (:data:`maopg.experiment.evaluate.EVAL_MAX_TICKS`): an episode
-    still going there is cut, its return is that of its first ticks, and one ``note:`` line
+    each evaluation episode's (:data:`maopg.experiment.evaluation.evaluate.EVAL_MAX_TICKS`): an
+    episode still going there is cut, its return is that of its first ticks, and one ``note:`` line
     says how many were.
 
     With ``progress``, one line first names the steps to come (:func:`after_training_plan`,

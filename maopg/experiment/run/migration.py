@@ -24,7 +24,8 @@ learner's finished-episode count, new with exploration, is 0 where absent). A ch
 config is in its checkpoint's schema.
 
 A command-line spelling of an earlier release (``epochs=5``, ``--set``) is not a saved file: the
-command lines read it with one deprecation line (:func:`maopg.experiment.config.parse_overrides`).
+command lines read it with one deprecation line
+(:func:`maopg.experiment.run.config.parse_overrides`).
 """
 
 from __future__ import annotations
@@ -33,7 +34,7 @@ from typing import Any
 
 SCHEMA_KEY = "schema"
 CONFIG_SCHEMA = 3
-"""The layout :meth:`~maopg.experiment.config.TrainConfig.save` writes."""
+"""The layout :meth:`~maopg.experiment.run.config.TrainConfig.save` writes."""
 CHECKPOINT_SCHEMA = 3
 """The layout the trainer's checkpoints are written in."""
 

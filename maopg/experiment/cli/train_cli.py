@@ -1,13 +1,13 @@
 """Command line: ``python -m train --task tool_delivery --method async --seed 0 [key=value ...]``
 (``maopg-train`` once installed).
 
-Named flags cover what one changes per run; any :class:`~maopg.experiment.config.TrainConfig`
+Named flags cover what one changes per run; any :class:`~maopg.experiment.run.config.TrainConfig`
 field can be overridden as ``key=value`` (``num_envs=8``), the method's hyper-parameters as
 ``SECTION.key=value`` (``ppo.epochs=5``, ``dqn.lr=1e-3``) and task settings as
 ``env.key=value``, over the settings of a ``--config run.yaml`` (or ``.json``) file; a
 ``key=value`` that repeats a flag (``seed=2`` with ``--seed 1``) must agree with it. Tasks and
 methods are the registries' (``maopg.tasks``,
-``maopg.experiment.methods``), extended by plugins (``--import MODULE``), which the run records
+``maopg.experiment.run.methods``), extended by plugins (``--import MODULE``), which the run records
 so that ``--resume`` and evaluation import them again.
 """
 
@@ -24,17 +24,17 @@ from maopg.sim.egl_check import exit_if_mujoco_cannot_import
 # One line, not PyOpenGL's traceback from the imports below:
 exit_if_mujoco_cannot_import("python -m train")
 
-from maopg.experiment.command_line import Parser, add_common_options, run_command
-from maopg.experiment.config import (
+from maopg.experiment.cli.command_line import Parser, add_common_options, run_command
+from maopg.experiment.run.config import (
     TrainConfig,
     merge,
     parse_overrides,
     split_assignment,
     unset_run,
 )
-from maopg.experiment.config_file import read_config_file
-from maopg.experiment.methods import method_names
-from maopg.experiment.run_dir import CONFIG
+from maopg.experiment.run.config_file import read_config_file
+from maopg.experiment.run.directory import CONFIG
+from maopg.experiment.run.methods import method_names
 from maopg.plugins import load_plugins
 from maopg.tasks import task_names
 
@@ -148,7 +148,7 @@ def _early_plugins(argv: Sequence[str]) -> list[str]:
 def _train(argv: list[str], plugins: list[str]) -> int:
     plugins = [*plugins, *load_plugins(_early_plugins(argv))]
     config, args = parse_args(argv, list(dict.fromkeys(plugins)))
-    from maopg.experiment.trainer import train
+    from maopg.experiment.training.trainer import train
 
     run_dir = train(config, resume=args.resume, overwrite=args.overwrite)
     print(f"run directory: {run_dir}")
