@@ -4,10 +4,11 @@ of the code, on one machine, and compare the curves row for row.
 Run, for a change that claims to leave behaviour alone (``OLD`` a checkout of the code before
 it, e.g. ``git worktree add /tmp/old <commit>``)::
 
-    PYTHONPATH=OLD .venv/bin/python bench/analysis/replay_runs.py train RUNS --out /tmp/before
+    PYTHONPATH=OLD .venv/bin/python OLD/bench/analysis/replay_runs.py train RUNS --out /tmp/before
     .venv/bin/python bench/analysis/replay_runs.py train RUNS --out /tmp/after
     .venv/bin/python bench/analysis/replay_runs.py compare /tmp/before /tmp/after
 
+(each side runs its own copy of this script, which imports its own version's modules);
 ``train`` trains each of the run directories ``RUNS``' saved ``config.json`` afresh into
 ``--out`` (under the run's ``task/method/seedN``), its budget cut to ``--samples`` (0: the
 whole budget);

@@ -20,16 +20,16 @@ iterations, and in the checkpoint) and stores them per row; the update runs over
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from concurrent.futures import ThreadPoolExecutor
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from functools import partial
 from typing import Any, ClassVar
 
 import numpy as np
 import torch
 from torch import Tensor, nn
 
-from maopg.env.contract import EnvSpec
+from maopg.env.contract import DecisionPoint, EnvSpec
 from maopg.env.vector import SeededVectorEnv
 from maopg.learner.adam import Adam
 from maopg.learner.base import (
@@ -40,6 +40,7 @@ from maopg.learner.base import (
     require_finite,
     require_finite_parameters,
 )
+from maopg.learner.beside import Beside
 from maopg.learner.buffer import Memory, Rollout, TrainBatch
 from maopg.learner.gae import DiscountForm
 from maopg.learner.value_norm import ValueNorm
@@ -240,28 +241,6 @@ class _StepInputs:
         )
 
 
-def _critic_thread() -> ThreadPoolExecutor:
-    """A new thread for the critic's steps of one update, or of one collection (the actor's run
-    on the caller's thread), computing on the process's number of torch threads.
-
-    Why the number is set there: a new thread starts at OpenMP's default (every core), and torch
-    applies ``torch.set_num_threads`` to a thread only lazily, at the first operation that asks
-    for it; a GRU's small steps never do. So a recurrent critic's first steps on a new thread ran
-    on two OpenMP threads and its later ones on one, and its bits depended on the thread's past
-    and on ``OMP_NUM_THREADS`` (measured: a recurrent run resumed in a new process left the
-    uninterrupted run's value loss in the seventh digit at its first iteration, and a second
-    ``async-rnn`` run in one process left the first's curve at iteration 2). Why a new thread
-    each time: nothing a thread holds outlives an update, whatever a later run in the process
-    sets; starting one costs well under a millisecond. Feed-forward critics reach the setting
-    in their first operation and compute the same bits as before."""
-    return ThreadPoolExecutor(1, thread_name_prefix="maopg-critic", initializer=_same_threads)
-
-
-def _same_threads() -> None:
-    """Apply the process's torch thread count to this thread now (see :func:`_critic_thread`)."""
-    torch.set_num_threads(torch.get_num_threads())
-
-
 class MAPPO:
     """Clipped-surrogate updates of a conditional option policy and a centralized critic."""
 
@@ -278,6 +257,9 @@ class MAPPO:
         self.config = config
         self.policy_opt = Adam(policy.parameters(), lr=config.lr, eps=config.adam_eps)
         self.critic_opt = Adam(critic.parameters(), lr=config.critic_lr, eps=config.adam_eps)
+        self.overlap_critic = True
+        """The critic's steps (and its values in the collection) on a thread of their own beside
+        the actor's (:mod:`maopg.learner.beside`: the same bits either way)."""
 
     def value_targets(self, returns: Tensor) -> Tensor:
         """Returns in the critic's space (normalised when value normalisation is on)."""
@@ -396,11 +378,8 @@ class MAPPO:
         A non-finite loss or gradient stops it before the step that would spread it, a
         non-finite weight after the epochs (:class:`~maopg.learner.base.NonFiniteError`).
 
-        The actor's and the critic's steps share no tensor that either writes (separate
-        networks, optimisers and losses; advantages and targets are fixed before the epochs), so
-        the critic's runs on a second thread while the actor's runs on this one: torch releases
-        the GIL inside its kernels, so the two overlap on two cores, and each computes exactly
-        what it would alone, in the same order — the same bits as one after the other.
+        The critic's step runs beside the actor's (:attr:`overlap_critic`): advantages and
+        targets are fixed before the epochs, and neither step writes what the other reads.
         """
         cfg = self.config
         ent_coef = cfg.entropy_coef(samples)
@@ -418,7 +397,7 @@ class MAPPO:
         chunks = batch.chunks(cfg.chunk_length) if self.policy.recurrent else None
         size = len(batch) if chunks is None else len(chunks)
         num_minibatches = max(1, min(cfg.num_minibatches, size))
-        with _critic_thread() as thread:
+        with Beside(self.overlap_critic) as beside:
             for _ in range(cfg.epochs):
                 # The generator is a CPU one (LearnerSetup.device): draw there, index on the device.
                 order = torch.randperm(size, generator=generator).to(advantages.device)
@@ -429,13 +408,11 @@ class MAPPO:
                         )
                     else:
                         inputs = self._step_inputs(batch, chunks[index], advantages, targets)
-                    critic_job = thread.submit(self._critic_step, inputs)
-                    try:
-                        stats = self._actor_step(inputs, ent_coef)
-                    except BaseException:
-                        critic_job.exception()  # let the critic's step end; the actor's error wins
-                        raise
-                    stats["value_loss"] = critic_job.result()
+                    value_loss, stats = beside.run(
+                        partial(self._critic_step, inputs),
+                        partial(self._actor_step, inputs, ent_coef),
+                    )
+                    stats["value_loss"] = value_loss
                     for key, value in stats.items():
                         sums[key] += value
                     updates += 1
@@ -535,11 +512,25 @@ def partial_policy(
     )
 
 
-def _history_inputs(
-    conditions: tuple[Tensor, Tensor, Tensor], device: torch.device
-) -> tuple[Tensor, Tensor]:
-    """``(choosing, running)`` of points on ``device``: what a critic's option history reads."""
-    return conditions[0].to(device), conditions[1].to(device)
+@dataclass(frozen=True)
+class _Points:
+    """The environments' decision points as the collection reads them: observations on the CPU
+    (kept in the rollout) and on the learner's device, which points open an episode, and their
+    conditions ``(choosing, running, available)`` on the CPU."""
+
+    obs: ObsBatch
+    on_device: ObsBatch
+    starts: Tensor
+    conditions: tuple[Tensor, Tensor, Tensor]
+
+    @classmethod
+    def of(cls, points: Sequence[DecisionPoint], device: torch.device) -> _Points:
+        obs = ObsBatch.from_decision_points(points)
+        return cls(obs, obs.to(device), episode_starts(points), stack_conditions(points))
+
+    def history(self, device: torch.device) -> tuple[Tensor, Tensor]:
+        """``(choosing, running)`` on ``device``: what a critic's option history reads."""
+        return self.conditions[0].to(device), self.conditions[1].to(device)
 
 
 class MAPPOLearner(Learner):
@@ -632,72 +623,30 @@ class MAPPOLearner(Learner):
         advances as it acts, the critic's as it values each point once (that value is the
         bootstrap of the step before and the baseline of the step after).
         """
-        critic, device = self.critic, self.device
-        value_on_thread = torch.no_grad()(critic.step)  # grad mode is per thread
         rollout = Rollout(num_envs=envs.num_envs, epsilon=epsilon if scored_mixed else 0.0)
-        obs = ObsBatch.from_decision_points(envs.points)
-        on_device = obs.to(device)
-        starts = episode_starts(envs.points)
+        here = _Points.of(envs.points, self.device)
         policy_in, critic_in = self.memory["policy"], self.memory["critic"]
-        conditions = stack_conditions(envs.points)
-        values, critic_out = critic.step(
-            on_device, critic_in, starts.to(device), *_history_inputs(conditions, device)
-        )
-        values = values.cpu()
-        acting = self._act(on_device, conditions, policy_in, starts)
+        values, critic_out = self._value(here, critic_in)
+        dist, policy_out = self._act(here, policy_in)
         ticks = 0
-        with _critic_thread() as thread:
+        with Beside(self.ppo.overlap_critic) as beside:
             while ticks < self.setup.batch_ticks:
-                (choosing, running, available), policy_dist, policy_out = acting
-                dist = policy_dist
-                if epsilon:  # the conditions cross to the device only when they are needed
-                    here = (choosing.to(device), running.to(device), available.to(device))
-                    dist = self.ppo.explored(policy_dist, epsilon, here)
-                joint = dist.sample(self.setup.sample_gen)
-                log_prob = (dist if scored_mixed else policy_dist).log_prob(joint).cpu()
-                joint = joint.cpu()
+                joint, log_prob = self._choose(dist, here.conditions, epsilon, scored_mixed)
                 results = envs.step(joint.numpy())
                 outcomes = [r.outcome for r in results]
                 ticks += int(sum(o.duration for o in outcomes))
-                next_obs = ObsBatch.from_decision_points(envs.points)
-                next_on_device = next_obs.to(device)
-                next_starts = episode_starts(envs.points)
-                next_conditions = stack_conditions(envs.points)
-                # The critic values the new points on its own thread while the policy decides
-                # there (as in the update: each computes what it would alone, the same bits).
-                valuing = thread.submit(
-                    value_on_thread,
-                    next_on_device,
-                    critic_out,
-                    next_starts.to(device),
-                    *_history_inputs(next_conditions, device),
+                there = _Points.of(envs.points, self.device)
+                more = ticks < self.setup.batch_ticks
+                # The critic values the new points while the policy decides there.
+                (next_values, next_critic_out), acting = beside.run(
+                    partial(self._value, there, critic_out),
+                    partial(self._act, there, policy_out) if more else lambda: None,
                 )
-                try:
-                    if ticks < self.setup.batch_ticks:
-                        acting = self._act(next_on_device, next_conditions, policy_out, next_starts)
-                except BaseException:
-                    valuing.exception()  # let the critic's forward end; the policy's error wins
-                    raise
-                next_values, next_critic_out = valuing.result()
-                next_values = next_values.cpu()
-                bootstrap = next_values.clone()
-                truncated = [e for e, o in enumerate(outcomes) if o.truncated]
-                if truncated:
-                    final_points = [outcomes[e] for e in truncated]
-                    finals = ObsBatch.from_decision_points(final_points)
-                    carried = None if critic_out is None else critic_out[truncated]
-                    final_values, _ = critic.step(
-                        finals.to(device),
-                        carried,
-                        episode_starts(final_points).to(device),
-                        *_history_inputs(stack_conditions(final_points), device),
-                    )
-                    bootstrap[truncated] = final_values.cpu()
                 rollout.add(
-                    obs=obs,
-                    choosing=choosing,
-                    running=running,
-                    available=available,
+                    obs=here.obs,
+                    choosing=here.conditions[0],
+                    running=here.conditions[1],
+                    available=here.conditions[2],
                     joint=joint,
                     log_prob=log_prob,
                     value=values,
@@ -706,33 +655,68 @@ class MAPPOLearner(Learner):
                     duration=np.array([o.duration for o in outcomes]),
                     terminated=np.array([o.terminated for o in outcomes]),
                     truncated=np.array([o.truncated for o in outcomes]),
-                    next_value=bootstrap,
+                    next_value=self._bootstrap(outcomes, next_values, critic_out),
                     memory=None
                     if policy_in is None
-                    else Memory(starts, policy_in.cpu(), critic_in.cpu()),  # type: ignore[union-attr]
+                    else Memory(here.starts, policy_in.cpu(), critic_in.cpu()),  # type: ignore[union-attr]
                 )
                 rollout.episodes += [
                     dict(r.final.info["episode"]) for r in results if r.final is not None
                 ]
-                obs, on_device, values, starts = next_obs, next_on_device, next_values, next_starts
+                here, values = there, next_values
                 policy_in, critic_in, critic_out = policy_out, critic_out, next_critic_out
+                if acting is not None:
+                    dist, policy_out = acting
         self.memory = {"policy": policy_in, "critic": critic_in}
         return rollout
 
     def _act(
-        self,
-        obs: ObsBatch,
-        conditions: tuple[Tensor, Tensor, Tensor],
-        state: Tensor | None,
-        starts: Tensor,
-    ) -> tuple[tuple[Tensor, Tensor, Tensor], JointOptionDistribution, Tensor | None]:
-        """The conditions at the environments' current points (``choosing``, ``running``,
-        ``available``), the policy's conditional there and its state after them."""
+        self, points: _Points, state: Tensor | None
+    ) -> tuple[JointOptionDistribution, Tensor | None]:
+        """The policy's conditional at ``points`` and its state after them."""
         device = self.device
-        dist, state = self.policy.step(
-            obs, *(c.to(device) for c in conditions), state, starts.to(device)
+        conditions = (c.to(device) for c in points.conditions)
+        return self.policy.step(points.on_device, *conditions, state, points.starts.to(device))
+
+    def _choose(
+        self,
+        dist: JointOptionDistribution,
+        conditions: tuple[Tensor, Tensor, Tensor],
+        epsilon: float,
+        scored_mixed: bool,
+    ) -> tuple[Tensor, Tensor]:
+        """A joint option drawn from ``dist`` mixed with exploration of weight ``epsilon``, and
+        its log-probability under the mixture (or, not ``scored_mixed``, under ``dist``), both
+        on the CPU."""
+        mixed = dist
+        if epsilon:  # the conditions cross to the device only when they are needed
+            mixed = self.ppo.explored(dist, epsilon, tuple(c.to(self.device) for c in conditions))
+        joint = mixed.sample(self.setup.sample_gen)
+        log_prob = (mixed if scored_mixed else dist).log_prob(joint).cpu()
+        return joint.cpu(), log_prob
+
+    @torch.no_grad()  # grad mode is per thread: this may run on the critic's
+    def _value(self, points: _Points, state: Tensor | None) -> tuple[Tensor, Tensor | None]:
+        """The critic's values of ``points`` (on the CPU) and its state after them."""
+        device = self.device
+        values, state = self.critic.step(
+            points.on_device, state, points.starts.to(device), *points.history(device)
         )
-        return conditions, dist, state
+        return values.cpu(), state
+
+    def _bootstrap(
+        self, outcomes: Sequence[DecisionPoint], next_values: Tensor, state: Tensor | None
+    ) -> Tensor:
+        """What each step bootstraps from: the value of the next decision point, or of its
+        episode's final point where a timeout truncated it (the critic's ``state`` carried
+        into it)."""
+        bootstrap = next_values.clone()
+        truncated = [e for e, o in enumerate(outcomes) if o.truncated]
+        if truncated:
+            finals = _Points.of([outcomes[e] for e in truncated], self.device)
+            carried = None if state is None else state[truncated]
+            bootstrap[truncated] = self._value(finals, carried)[0]
+        return bootstrap
 
     def final_state(self) -> dict[str, Any]:
         return {

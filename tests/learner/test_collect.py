@@ -113,3 +113,22 @@ def test_values_taken_beside_the_policy_are_the_critics_own_to_the_bit(envs):
     for t in range(rollout.num_steps - 1):
         kept = ~truncated[t]
         assert torch.equal(rollout.next_value[t][kept], rollout.value[t + 1][kept])
+
+
+def test_the_critics_thread_changes_no_bit_of_the_rollout():
+    """Collection with the critic valuing beside the policy (``MAPPO.overlap_critic``) and one
+    after the other: the same rollout, bit for bit, truncated episodes' bootstraps included."""
+    rollouts = []
+    for threaded in (True, False):
+        envs = SeededVectorEnv(CONFIG, num_envs=3, seed=11)
+        try:
+            envs.reset()
+            learner = _learner(envs, 600, seed=2)
+            learner.ppo.overlap_critic = threaded
+            rollouts.append(learner.collect(envs, 0.3))
+        finally:
+            envs.close()
+    threaded, serial = rollouts
+    assert threaded.grid("truncated").any()
+    for key in ("joint", "log_prob", "value", "next_value", "reward_sum"):
+        np.testing.assert_array_equal(threaded.grid(key), serial.grid(key))
