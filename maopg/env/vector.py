@@ -288,6 +288,18 @@ class SeededVectorEnv:
             [episode_seed(self.seed, e, 0) for e in range(self.num_envs)]
         )
 
+    def restart(self) -> None:
+        """Leave every environment's current episode unfinished and start its next one (its
+        next episode seed): for a learner that collects whole episodes from a common start,
+        as ACAC's rounds do. The abandoned episodes report nothing."""
+        if not self.points:
+            raise RuntimeError("call reset() or load_state_dict() before restart()")
+        self.episode = [j + 1 for j in self.episode]
+        self.actions = [[] for _ in range(self.num_envs)]
+        self.points = self.backend.reset(
+            [episode_seed(self.seed, e, j) for e, j in enumerate(self.episode)]
+        )
+
     def step(self, joints: np.ndarray) -> list[StepResult]:
         """Apply one joint option per environment (``int64 [E, N]``), in lockstep.
 

@@ -1,7 +1,9 @@
 """The learners: MAPPO over option-level trajectories (rollout storage, GAE, value
-normalisation, the PPO update) and the Mac-DQN baseline (squeezed replay, conditional
-double-Q), each with its own collection loop behind :class:`Learner`, and atomic checkpoints."""
+normalisation, the PPO update), the Mac-DQN baseline (squeezed replay, conditional double-Q)
+and ACAC (agent-centric actors and an attention critic over whole episodes), each with its own
+collection loop behind :class:`Learner`, and atomic checkpoints."""
 
+from maopg.learner.acac import ACACConfig, ACACLearner
 from maopg.learner.adam import Adam
 from maopg.learner.base import SHARED_COLUMNS, Actor, Learner, LearnerSetup, NonFiniteError
 from maopg.learner.buffer import Rollout, TrainBatch
@@ -23,6 +25,8 @@ from maopg.learner.value_norm import ValueNorm
 __all__ = [
     "MAPPO",
     "SHARED_COLUMNS",
+    "ACACConfig",
+    "ACACLearner",
     "Actor",
     "Adam",
     "CheckpointError",

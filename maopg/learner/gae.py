@@ -12,6 +12,9 @@ Two discount forms are supported (docs/DESIGN.md §5):
     ``R^γ_t = Σ_j γ^j r_{t,j}``. It estimates the same tick-level return whatever the options'
     durations are, so the methods (and ``end2end``, whose options last one tick) optimise one
     objective and their values are comparable.
+``event``
+    ACAC's asynchronous form (Xiao et al. 2025): the semi-Markov ``δ_t``, with the trace decayed
+    by ``γ^{k_t} λ`` — λ once per decision event, however many ticks it lasted.
 ``option``
     The paper's form: treat an option step as one step, ``δ_t = R_t + γ V(z_{t+1}) − V(z_t)`` and
     ``A_t = δ_t + γλ A_{t+1}`` with the summed reward ``R_t = Σ_j r_{t,j}``. With unequal
@@ -41,6 +44,7 @@ class DiscountForm(enum.StrEnum):
     """How the learner discounts across an option step."""
 
     SMDP = "smdp"
+    EVENT = "event"
     OPTION = "option"
 
 
@@ -72,6 +76,10 @@ def compute_gae(
         rewards = np.asarray(reward_discounted, dtype=np.float64)
         discount = gamma**durations
         trace = (gamma * lam) ** durations
+    elif form is DiscountForm.EVENT:
+        rewards = np.asarray(reward_discounted, dtype=np.float64)
+        discount = gamma**durations
+        trace = discount * lam
     else:
         rewards = np.asarray(reward_sum, dtype=np.float64)
         discount = np.full_like(values, gamma)

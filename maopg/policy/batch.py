@@ -42,6 +42,9 @@ class ObsBatch:
     """Dense ``uint8 [B, N, H, W, 3]``, or the bank ``[M, H, W, 3]``; ``None`` without images."""
     image_index: Tensor | None = None
     """``int64 [B, N]`` rows of the bank (banked form only)."""
+    ticks: Tensor | None = None
+    """``int64 [B]``: the ticks since reset at each point (:attr:`DecisionPoint.ticks`), for a
+    network that embeds when an observation was received (ACAC's); ``None`` where not kept."""
 
     @staticmethod
     def from_decision_points(points: Sequence[DecisionPoint]) -> ObsBatch:
@@ -54,7 +57,8 @@ class ObsBatch:
         images = None
         if points[0].images is not None:
             images = torch.from_numpy(np.stack([p.images for p in points]))
-        return ObsBatch(torch.from_numpy(vectors), images)
+        ticks = torch.tensor([p.ticks for p in points], dtype=torch.int64)
+        return ObsBatch(torch.from_numpy(vectors), images, ticks=ticks)
 
     def __len__(self) -> int:
         return self.vectors.shape[0]
@@ -64,16 +68,18 @@ class ObsBatch:
         A banked batch keeps only the images its rows use."""
         if isinstance(index, int):
             index = slice(index, index + 1)
+        ticks = None if self.ticks is None else self.ticks[index]
         if self.image_index is not None:
             bank, rows = compact_bank(self.images, self.image_index[index])  # type: ignore[arg-type]
-            return ObsBatch(self.vectors[index], bank, rows)
+            return ObsBatch(self.vectors[index], bank, rows, ticks)
         images = None if self.images is None else self.images[index]
-        return ObsBatch(self.vectors[index], images)
+        return ObsBatch(self.vectors[index], images, ticks=ticks)
 
     def to(self, device: torch.device | str) -> ObsBatch:
         images = None if self.images is None else self.images.to(device)
         index = None if self.image_index is None else self.image_index.to(device)
-        return ObsBatch(self.vectors.to(device), images, index)
+        ticks = None if self.ticks is None else self.ticks.to(device)
+        return ObsBatch(self.vectors.to(device), images, index, ticks)
 
     def dense_images(self) -> Tensor | None:
         """``uint8 [B, N, H, W, 3]`` whatever the form (a banked batch gathers its bank)."""

@@ -36,7 +36,11 @@ RUN = [
     "plot=false",
     "checkpoint_every=2",
 ]
-SECTION = {"ppo": ["ppo.epochs=2"], "dqn": ["dqn.learning_starts=40", "dqn.train_every=20"]}
+SECTION = {
+    "ppo": ["ppo.epochs=2"],
+    "dqn": ["dqn.learning_starts=40", "dqn.train_every=20"],
+    "acac": ["acac.episodes_per_update=1"],
+}
 
 
 def tiny(method: str = "async") -> list[str]:
@@ -181,6 +185,7 @@ def test_every_method_trains_a_tiny_budget(tmp_path, task, method):
         ("async", 1200, ["eval_every=120", "eval_during_episodes=1", "env.max_ticks=40"]),
         ("partial-rnn", 480, []),
         ("async-rnn", 480, ["ppo.option_history=true", "ppo.memory_norm=true"]),
+        ("acac", 600, ["env.max_ticks=40"]),
     ],
 )
 def test_kill_and_resume_reproduces_the_uninterrupted_run(tmp_path, capsys, method, samples, extra):
@@ -216,7 +221,7 @@ def test_kill_and_resume_reproduces_the_uninterrupted_run(tmp_path, capsys, meth
     assert not (killed / "final.pt").exists() and not (killed / "done.json").exists()
 
     # resumed in a fresh process, as after a crash: nothing of the reference run's process
-    # (the critic's thread once carried bits across, maopg.learner.mappo._critic_thread) helps
+    # (the critic's thread once carried bits across, maopg.learner.beside) helps
     resume = [sys.executable, "-m", "train", "--resume", "--run-dir", str(killed)]
     subprocess.run([*resume, "progress=false"], cwd=REPO, check=True, stdout=subprocess.DEVNULL)
     assert _deterministic(_rows(killed)) == _deterministic(_rows(reference))
@@ -231,7 +236,7 @@ def test_kill_and_resume_reproduces_the_uninterrupted_run(tmp_path, capsys, meth
 
 def test_a_second_run_in_one_process_gives_the_first_runs_curve(tmp_path):
     """Nothing a run leaves in the process changes the next one's bits: the critic's thread
-    once did, for a recurrent critic (``maopg.learner.mappo._critic_thread``: then one thread
+    once did, for a recurrent critic (``maopg.learner.beside``: then one thread
     for the process, the second run left the first's curve at iteration 2)."""
     common = ["--seed", "5", "--total-samples", "360", *tiny("async-rnn")]
     for name in ("first", "second"):

@@ -20,7 +20,8 @@ from torch import nn
 
 from maopg.env.contract import EnvSpec, Strategy
 from maopg.experiment.run.directory import TIMING_COLUMNS
-from maopg.learner import SHARED_COLUMNS, Learner, MacDQNLearner, MAPPOLearner
+from maopg.learner import SHARED_COLUMNS, ACACLearner, Learner, MacDQNLearner, MAPPOLearner
+from maopg.learner.acac import agent_centric_policy
 from maopg.learner.macdqn import joint_q_network
 from maopg.learner.mappo import (
     autoregressive_policy,
@@ -166,3 +167,7 @@ RECURRENT = {"settings": (("recurrent", True),)}
 register_method(Method("async-rnn", "continue", MAPPOLearner, centralized_policy, **RECURRENT))
 register_method(Method("sync-wait-rnn", "all", MAPPOLearner, centralized_policy, **RECURRENT))
 register_method(Method("partial-rnn", "continue", MAPPOLearner, partial_policy, **RECURRENT))
+# The field's strongest published asynchronous policy-gradient method, as a baseline: ACAC
+# (Agent-Centric Actor-Critic, ICML 2025; maopg.learner.acac), decentralized recurrent actors
+# and an attention critic, trained on whole episodes collected in rounds.
+register_method(Method("acac", "continue", ACACLearner, agent_centric_policy))

@@ -1,0 +1,207 @@
+"""ACAC's pieces against hand-worked cases, on the real Box Pushing grid task: the event-based
+time embedding, the asynchronous (event) GAE, the agent-centric memories that advance only at
+their own agent's decisions, the critic's inputs there, PopArt, ε-mixing and the round."""
+
+import math
+
+import numpy as np
+import pytest
+import torch
+
+from maopg.env.vector import EnvConfig, SeededVectorEnv
+from maopg.learner import ACACConfig, ACACLearner, LearnerSetup, compute_gae
+from maopg.policy import ObsBatch, stack_conditions
+from maopg.policy.agent_centric import (
+    AgentCentricCritic,
+    AgentCentricPolicy,
+    PopArt,
+    scan,
+    time_embedding,
+)
+
+CONFIG = EnvConfig(task="box_pushing_grid", strategy="continue")
+
+
+@pytest.fixture
+def envs():
+    envs = SeededVectorEnv(CONFIG, num_envs=4, seed=3)
+    envs.reset()
+    yield envs
+    envs.close()
+
+
+def _learner(envs: SeededVectorEnv, **settings) -> ACACLearner:
+    torch.manual_seed(0)
+    config = ACACConfig(**settings)
+    setup = LearnerSetup(
+        spec=envs.spec,
+        config=config,
+        num_envs=envs.num_envs,
+        batch_ticks=1,
+        gamma=0.98,
+        hidden=32,
+        layers=2,
+        sample_gen=torch.Generator().manual_seed(1),
+        update_gen=torch.Generator(),
+    )
+    return ACACLearner(AgentCentricPolicy(envs.spec, width=config.width), setup)
+
+
+def test_the_time_embedding_reads_the_tick_an_observation_came_at():
+    """τ = ticks + 1 in radians, as the published table of width 2 (frequency 1)."""
+    got = time_embedding(torch.tensor([0, 4, 99]))
+    for row, tau in zip(got, (1, 5, 100), strict=True):
+        assert torch.allclose(row, torch.tensor([math.sin(tau), math.cos(tau)]))
+
+
+def test_the_event_gae_decays_lambda_once_per_decision():
+    """Two decision points of 3 and 2 ticks, then a timeout bootstrapped from V = 4, worked
+    by hand: δ_t = R_t + γ^k V' − V, A_t = δ_t + γ^k λ A_{t+1}."""
+    gamma, lam = 0.9, 0.5
+    values = np.array([[1.0], [2.0]])
+    next_values = np.array([[2.0], [4.0]])
+    rewards = np.array([[1.5], [0.5]])
+    durations = np.array([[3], [2]])
+    advantages, returns = compute_gae(
+        values=values,
+        next_values=next_values,
+        reward_sum=rewards,
+        reward_discounted=rewards,
+        durations=durations,
+        terminated=np.zeros((2, 1), bool),
+        continues=np.array([[True], [False]]),
+        gamma=gamma,
+        lam=lam,
+        form="event",
+    )
+    delta1 = 0.5 + 0.9**2 * 4.0 - 2.0
+    delta0 = 1.5 + 0.9**3 * 2.0 - 1.0
+    assert advantages[1, 0] == pytest.approx(delta1)
+    assert advantages[0, 0] == pytest.approx(delta0 + 0.9**3 * 0.5 * delta1)
+    assert returns[:, 0] == pytest.approx(advantages[:, 0] + values[:, 0])
+
+
+def test_an_agents_memory_advances_only_at_its_own_decisions(envs):
+    """Actor and critic alike: a step where agent 1 continues leaves its state as it was, and
+    agent 0's moves; the actor's continuing agent keeps its running option."""
+    torch.manual_seed(0)
+    policy = AgentCentricPolicy(envs.spec)
+    critic = AgentCentricCritic(envs.spec)
+    obs = ObsBatch.from_decision_points(envs.points[:1])
+    choosing, running, available = stack_conditions(envs.points[:1])
+    state = torch.randn(1, 2, 32)
+    continuing = torch.tensor([[True, False]])
+    running = torch.tensor([[-1, 3]])
+    dist, after = policy.step(obs, continuing, running, available, state, torch.tensor([False]))
+    assert torch.equal(after[:, 1], state[:, 1]) and not torch.equal(after[:, 0], state[:, 0])
+    assert dist.sample(torch.Generator().manual_seed(0))[0, 1] == 3
+    _, after = critic.step(obs, continuing, state, torch.tensor([False]))
+    assert torch.equal(after[:, 1], state[:, 1]) and not torch.equal(after[:, 0], state[:, 0])
+    _, fresh = critic.step(obs, choosing, state, torch.tensor([True]))  # a start zeroes both
+    _, zeroed = critic.step(obs, choosing, torch.zeros_like(state), torch.tensor([False]))
+    assert torch.equal(fresh, zeroed)
+
+
+def test_the_critic_reads_each_agents_latest_encoding_along_an_episode(envs):
+    """``scan`` over a collected round's points gives, at every point, the value that stepping
+    the critic point by point gives: each agent's token is its encoder's state after its own
+    latest decision."""
+    learner = _learner(envs, episodes_per_update=2)
+    batch, _, _ = learner.collect(envs, 0.5)
+    critic = learner.critic
+    with torch.no_grad():
+        along = learner._values(critic, batch)
+        steps, width = batch.choosing.shape[:2], critic.width
+        state = torch.zeros(steps[1], 2, width)
+        for t in range(steps[0]):
+            rows = torch.arange(t * steps[1], (t + 1) * steps[1])
+            value, state = critic.step(batch.obs[rows], batch.choosing[t], state, batch.starts[t])
+            valid = t <= torch.from_numpy(batch.length)
+            assert torch.allclose(along[t][valid], value[valid], atol=1e-6)
+        states = scan(
+            critic.cells,
+            [net(batch.obs) for net in critic.inputs],
+            batch.choosing,
+            batch.starts,
+            critic.initial_state(steps[1]),
+        )
+    assert states.shape == (*steps, 2, width)
+
+
+def test_popart_keeps_every_output_while_its_statistics_move():
+    torch.manual_seed(0)
+    head = PopArt(8, beta=0.9)
+    x = torch.randn(5, 8)
+    before = head.denormalize(head(x))
+    head.update(torch.tensor([100.0, 250.0, -10.0]))
+    assert torch.allclose(head.denormalize(head(x)), before, atol=1e-4)
+    mean, std = head.stats()
+    assert mean == pytest.approx(340.0 / 3, rel=1e-4)  # debiased: the one batch's own mean
+    assert std > 1.0
+
+
+def test_a_round_trains_on_the_last_finished_episodes_and_counts_them(envs):
+    learner = _learner(envs, episodes_per_update=3)
+    batch, finished, ticks = learner.collect(envs, 1.0)
+    assert len(finished) >= 3 and batch.choosing.shape[1] == 3
+    assert ticks >= sum(e["ticks"] for e in finished)  # unfinished episodes' ticks count too
+    lengths = batch.length
+    assert (lengths >= 1).all() and batch.choosing.shape[0] == lengths.max() + 1
+    # every agent chooses at an episode's first point, and rows after the final point are padding
+    assert batch.choosing[0].all() and not batch.steps[lengths, np.arange(3)].any()
+    row, _ = learner.iteration(envs, 0)
+    assert row["epsilon"] == 1.0 and row["published_steps"] == learner.published_steps > 0
+    assert learner.config.exploration(15_000) == pytest.approx(0.505)
+    assert learner.config.exploration(10**6) == pytest.approx(0.01)
+
+
+def test_at_full_exploration_the_ratio_is_one_whatever_the_actors_say(envs):
+    """ε = 1: every choosing agent draws uniformly, old and new probabilities are the
+    uniform's whatever the weights, so the surrogate's ratio is exactly 1."""
+    learner = _learner(envs, episodes_per_update=2)
+    batch, _, _ = learner.collect(envs, 1.0)
+    old, _ = learner._agent_log_probs(batch, 1.0)
+    for parameter in learner.policy.parameters():
+        parameter.data.add_(torch.randn_like(parameter))
+    new, _ = learner._agent_log_probs(batch, 1.0)
+    deciding = batch.choosing & batch.steps.unsqueeze(-1)
+    for i in range(2):
+        assert torch.allclose(new[i][deciding[..., i]], old[i][deciding[..., i]])
+        assert torch.allclose(new[i][deciding[..., i]], torch.tensor(-math.log(8)))
+
+
+def test_an_update_moves_only_the_actors_of_agents_that_decided(envs):
+    """Each actor's loss reads its own decisions only: an agent masked out of every decision
+    of the batch keeps its weights, the other's change."""
+    learner = _learner(envs, episodes_per_update=2)
+    batch, _, _ = learner.collect(envs, 0.3)
+    batch.choosing[..., 1] = False
+    batch.running[..., 1] = batch.running[..., 1].clamp(min=0)  # a continuing agent's option
+    before = [p.clone() for p in learner.policy.heads[1].parameters()]
+    moved = [p.clone() for p in learner.policy.heads[0].parameters()]
+    learner.update(batch, 0.3)
+    kept, changed = (list(learner.policy.heads[i].parameters()) for i in (1, 0))
+    assert all(torch.equal(a, b) for a, b in zip(before, kept, strict=True))
+    assert any(not torch.equal(a, b) for a, b in zip(moved, changed, strict=True))
+
+
+def test_from_cameras_each_agent_reads_its_own_image():
+    """From RGB (Tool Delivery, three robots of two kinds): each actor and critic encoder has a
+    CNN of its own over its agent's camera, and a round and an update run through them."""
+    config = EnvConfig(
+        task="tool_delivery", strategy="continue", images=True, overrides={"max_ticks": 30}
+    )
+    envs = SeededVectorEnv(config, num_envs=2, seed=0)
+    try:
+        envs.reset()
+        learner = _learner(envs, episodes_per_update=1)
+        assert all(net.cnn is not None for net in learner.policy.inputs)
+        assert all(net.cnn is not None for net in learner.critic.inputs)
+        batch, finished, _ = learner.collect(envs, 0.5)
+        assert batch.obs.images is not None and len(finished) >= 1
+        before = learner.policy.inputs[0].cnn.convs[0].weight.clone()
+        stats = learner.update(batch, 0.5)
+        assert math.isfinite(stats["policy_loss"]) and math.isfinite(stats["value_loss"])
+        assert not torch.equal(learner.policy.inputs[0].cnn.convs[0].weight, before)
+    finally:
+        envs.close()
