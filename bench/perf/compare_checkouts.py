@@ -281,7 +281,10 @@ def run_section(
 ) -> str:
     """Run the checkout's own script for ``section`` (or the new tree's, if the section says
     so); return its stdout, checked for imports."""
-    script = (new if section.script_from_new else checkout).root / "bench" / section.script
+    bench = (new if section.script_from_new else checkout).root / "bench"
+    script = bench / "perf" / section.script  # bench/ was flat before its perf/analysis split
+    if not script.exists():
+        script = bench / section.script
     return run_script(checkout, script, section.args, others, cwd)
 
 

@@ -3,13 +3,13 @@
 Run: ``.venv/bin/python bench/perf/learner_plumbing.py [--cases td-rgb,wf-rgb,td,bp6]
 [--rounds 3]``. Prints a Markdown block for BENCHMARKS.md.
 
-1. **The critic's thread** (:mod:`maopg.learner.beside`, ``MAPPO.overlap_critic``): one
-   collection of a batch (the critic values the new decision points while the policy decides
-   there) and one PPO update of that batch (the critic's step beside the actor's), with the
-   critic's part on its own thread and one after the other. Each case is ``async`` at the
-   command line's defaults for its task (backend, batch, network, ``torch_threads``); both ways
-   update from the same weights and optimiser state on the same batch, and the table says
-   whether their weights came out bit-identical (they must).
+1. **The critic's thread** (:mod:`maopg.learner.beside`, ``MAPPO.overlap_critic``): one PPO
+   update of a collected batch with the critic's step on its own thread beside the actor's, and
+   one after the other. Each case is ``async`` at the command line's defaults for its task
+   (backend, batch, network, ``torch_threads``); both ways update from the same weights and
+   optimiser state on the same batch, and the table says whether their weights came out
+   bit-identical (they must). (At commit 805e0f4 the collection could value each new decision
+   point on that thread too, and this script timed it: it gained nothing, so it went.)
 2. **The learners' Adam** (:mod:`maopg.learner.adam`) against ``torch.optim.Adam``: what the
    first optimiser step of a fresh process costs — building the optimiser and one step, after
    the learner's modules are imported — each in a fresh subprocess.
@@ -86,9 +86,9 @@ def alternate(rounds: int, ways: dict[str, Callable[[], float]]) -> dict[str, li
     return times
 
 
-def critic_thread(task: str, fields: dict, rounds: int) -> tuple[dict, dict, int, bool]:
-    """Seconds of one collection and one update, threaded and not; the batch's decision points
-    (rows × environments); whether both updates gave the same weights."""
+def critic_thread(task: str, fields: dict, rounds: int) -> tuple[dict, int, bool]:
+    """Seconds of one update, threaded and not; the batch's decision points (rows ×
+    environments); whether both updates gave the same weights."""
     config = TrainConfig(task=task, method="async", **fields).resolved()
     torch.set_num_threads(config.torch_threads)
     envs = SeededVectorEnv(
@@ -104,23 +104,14 @@ def critic_thread(task: str, fields: dict, rounds: int) -> tuple[dict, dict, int
         gens = torch.Generator().manual_seed(0), torch.Generator().manual_seed(1)
         learner = build_learner(config, envs.spec, *gens)
         assert isinstance(learner, MAPPOLearner)
-        learner.collect(envs)  # warm-up: first renders, lazy imports, allocator growth
-
-        def collect(threaded: bool) -> Callable[[], float]:
-            def run() -> float:
-                learner.ppo.overlap_critic = threaded
-                start = time.perf_counter()
-                learner.collect(envs)
-                return time.perf_counter() - start
-
-            return run
-
-        collection = alternate(rounds, {"on": collect(True), "off": collect(False)})
         rollout = learner.collect(envs)
     finally:
         envs.close()
     advantages, returns, _ = rollout.advantages(
-        learner.value_norm, gamma=config.gamma, lam=config.learner.gae_lambda
+        learner.value_norm,
+        gamma=config.gamma,
+        lam=config.learner.gae_lambda,
+        form=config.learner.discount,
     )
     batch = rollout.training_batch(advantages, returns)
     start_state = copy.deepcopy(learner.state_dict())
@@ -144,7 +135,7 @@ def critic_thread(task: str, fields: dict, rounds: int) -> tuple[dict, dict, int
         for net in ("policy", "critic")
         for name, tensor in weights["off"][net].items()
     )
-    return collection, updating, rollout.num_steps * rollout.num_envs, same
+    return updating, rollout.num_steps * rollout.num_envs, same
 
 
 def first_step(rounds: int) -> dict[str, list[float]]:
@@ -179,15 +170,15 @@ def main() -> None:
     for case in cases:
         task, fields = CASES[case]
         print(f"[{case}] ...", file=sys.stderr)
-        collection, updating, points, same = critic_thread(task, fields, args.rounds)
-        rows.append((case, "collection", collection, points, "—"))
+        updating, points, same = critic_thread(task, fields, args.rounds)
         rows.append((case, "PPO update", updating, points, "yes" if same else "**NO**"))
     adam = first_step(args.rounds)
     print("### The learner's plumbing, on and off (`bench/perf/learner_plumbing.py`)\n")
     print(conditions)
     print(
         f"- {args.rounds} rounds, the two ways alternating (order swapped every round); "
-        f"median (min–max) seconds; total {(time.perf_counter() - began) / 60:.1f} min\n"
+        f"median (min–max) seconds; each case at its run's `torch_threads`; total "
+        f"{(time.perf_counter() - began) / 60:.1f} min\n"
     )
     print(
         "| case | what | decision points | critic on its thread (s) | one after the other (s) "

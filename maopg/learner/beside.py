@@ -4,8 +4,12 @@ Actor and critic share no tensor that either writes (separate networks, optimise
 what both read is fixed before), so the critic's part may run on a second thread while the
 actor's runs on the caller's: torch releases the GIL inside its kernels, so the two overlap on
 two cores, and each computes exactly what it would alone, in the same order — the same bits as
-one after the other. :class:`~maopg.learner.mappo.MAPPO` uses it for each PPO step and the
-collection for valuing the new decision points while the policy decides there.
+one after the other. :class:`~maopg.learner.mappo.MAPPO` runs each PPO step so: measured side
+by side in one run (``bench/perf/learner_plumbing.py``, BENCHMARKS.md), an update takes 1.84x
+less time from Water Filling RGB, 1.63x from Tool Delivery RGB, 1.13-1.26x from state. The
+collection once valued each new decision point this way while the policy decided there; it
+gained nothing measurable (0.95-1.04x, within the noise, on the same four cases) and runs one
+after the other.
 
 Why a new thread for each update and each collection, and why it sets its torch thread count at
 start: a new thread starts at OpenMP's default (every core), and torch applies
