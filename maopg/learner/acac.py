@@ -6,11 +6,11 @@ iteration is one of ACAC's collection rounds followed by its update, top to bott
 :meth:`ACACLearner.iteration`:
 
 1. **Collect** (:meth:`ACACLearner.collect`): every environment starts a new episode and all step
-   in lockstep until at least ``episodes_per_update`` episodes have finished in this round (an
-   environment whose episode ends starts the next at once); the batch is the last
-   ``episodes_per_update`` of them, and the unfinished episodes are dropped. Choosing agents
-   draw from ``(1 − ε) π_i + ε · uniform`` over their available options, ε falling linearly
-   in the episode counter, which grows by ``episodes_per_update`` a round.
+   in lockstep until the tick by which at least ``episodes_per_update`` episodes have finished
+   in this round (an environment whose episode ends starts the next at once); the batch is the
+   last ``episodes_per_update`` of them to finish, and the unfinished episodes are dropped.
+   Choosing agents draw from ``(1 − ε) π_i + ε · uniform`` over their available options, ε
+   falling linearly in the episode counter, which grows by ``episodes_per_update`` a round.
 2. **Advantages** over each episode's decision points (every point where some agent chooses):
    the *target* critic's values, the ``event`` form of GAE (:mod:`maopg.learner.gae`: the trace
    decays by ``γ^k λ`` per decision), bootstrapping a timeout from the final point's value and
@@ -38,6 +38,7 @@ decision of an agent is trained on, including one whose option the episode's end
 from __future__ import annotations
 
 import copy
+import math
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
@@ -57,7 +58,13 @@ from maopg.learner.base import (
     require_finite_parameters,
 )
 from maopg.learner.gae import DiscountForm, compute_gae
-from maopg.policy import DistributionActor, ObsBatch, episode_starts, stack_conditions
+from maopg.policy import (
+    DistributionActor,
+    ObsBatch,
+    episode_starts,
+    set_precision,
+    stack_conditions,
+)
 from maopg.policy.agent_centric import AgentCentricCritic, AgentCentricPolicy, scan
 from maopg.policy.conditional import FactoredConditional, mix_uniform
 from maopg.policy.joint_size import BuildTarget
@@ -120,6 +127,8 @@ class Episodes:
     """``int64 [T, B, N]``: the joint option taken at each decision point."""
     reward: np.ndarray
     """``[T, B]``: the discounted reward of the step from each point."""
+    reward_sum: np.ndarray
+    """``[T, B]``: its summed reward."""
     duration: np.ndarray
     terminated: np.ndarray
     """``bool [B]``: the episode ended in a terminal state (else a timeout)."""
@@ -155,15 +164,19 @@ def _episodes(rows: list[list[tuple[DecisionPoint, np.ndarray]]], finals: list) 
         c.view(longest, len(rows), -1) for c in stack_conditions(by_time)
     )
     reward = np.zeros((longest, len(rows)))
+    reward_sum = np.zeros((longest, len(rows)))
     duration = np.ones((longest, len(rows)))
     for b, seq in enumerate(points):
         for t, point in enumerate(seq[1 : len(rows[b]) + 1]):
             reward[t, b] = point.discounted_reward
+            reward_sum[t, b] = point.reward
             duration[t, b] = point.duration
     joint = torch.from_numpy(np.stack([np.stack(j) for j in joints], axis=1))
     terminated = np.array([f.terminated for f in finals])
     length = np.array([len(r) for r in rows])
-    return Episodes(obs, choosing, running, available, joint, reward, duration, terminated, length)
+    return Episodes(
+        obs, choosing, running, available, joint, reward, reward_sum, duration, terminated, length
+    )
 
 
 class ACACLearner(Learner):
@@ -190,6 +203,7 @@ class ACACLearner(Learner):
         self.critic = AgentCentricCritic(
             setup.spec, width=cfg.width, heads=cfg.heads, popart_beta=cfg.popart_beta
         ).to(self.device)
+        set_precision(self.critic, setup.precision)
         self.target = copy.deepcopy(self.critic)
         self.actor_opts = [
             Adam([*net.parameters(), *cell.parameters(), *head.parameters()], lr=cfg.lr)
@@ -212,7 +226,7 @@ class ACACLearner(Learner):
         row = {
             "option_steps": int(batch.steps.sum()),
             **episode_metrics(finished),
-            "option_step_reward": float(batch.reward[batch.steps.numpy()].mean()),
+            "option_step_reward": float(batch.reward_sum[batch.steps.numpy()].mean()),
             **stats,
             "epsilon": epsilon,
             "published_steps": self.published_steps,
@@ -223,17 +237,27 @@ class ACACLearner(Learner):
     def collect(
         self, envs: SeededVectorEnv, epsilon: float
     ) -> tuple[Episodes, list[dict[str, Any]], int]:
-        """One round (module docstring): the batch, every finished episode's info, the ticks
-        simulated."""
+        """One round (module docstring): the batch, the info of every episode that finished in
+        the round, the ticks simulated.
+
+        ACAC's environments advance a tick at a time and its round stops at the first tick by
+        which ``episodes_per_update`` episodes have finished; these advance a decision point at
+        a time, each by its own option's ticks. So every finish is kept with the round tick it
+        came at, the environments step until none can still finish at or before the tick of
+        the ``episodes_per_update``-th earliest finish (every one has passed it), and the round
+        is what ACAC's would have been: the episodes finished by then, ordered by tick (then
+        environment), the last ``episodes_per_update`` of them its batch. The ticks simulated
+        past that tick are in the count all the same."""
         cfg: ACACConfig = self.config
+        wanted = cfg.episodes_per_update
         envs.restart()
         state = self.policy.initial_state(envs.num_envs).to(self.device)
         open_rows: list[list[tuple[DecisionPoint, np.ndarray]]] = [[] for _ in envs.points]
-        done_rows: list[list[tuple[DecisionPoint, np.ndarray]]] = []
-        finals: list[DecisionPoint] = []
-        finished: list[dict[str, Any]] = []
-        ticks = 0
-        while len(finished) < cfg.episodes_per_update:
+        finishes: list[tuple[int, int, list, DecisionPoint]] = []
+        """(round tick, environment, rows, final point) of every finished episode."""
+        elapsed = np.zeros(envs.num_envs, dtype=np.int64)
+        cutoff = math.inf
+        while elapsed.min() < cutoff:
             points = envs.points
             obs = ObsBatch.from_decision_points(points).to(self.device)
             conditions = [c.to(self.device) for c in stack_conditions(points)]
@@ -246,14 +270,17 @@ class ACACLearner(Learner):
             results = envs.step(joint)
             for e, result in enumerate(results):
                 open_rows[e].append((kept[e], joint[e]))
-                ticks += result.outcome.duration
+                elapsed[e] += result.outcome.duration
                 if result.final is not None:
-                    done_rows.append(open_rows[e])
-                    finals.append(copy.deepcopy(result.final))
-                    finished.append(dict(result.final.info["episode"]))
+                    final = copy.deepcopy(result.final)
+                    finishes.append((int(elapsed[e]), e, open_rows[e], final))
                     open_rows[e] = []
-        last = cfg.episodes_per_update
-        return _episodes(done_rows[-last:], finals[-last:]), finished, ticks
+            if len(finishes) >= wanted:
+                cutoff = sorted(f[0] for f in finishes)[wanted - 1]
+        done = sorted((f for f in finishes if f[0] <= cutoff), key=lambda f: (f[0], f[1]))
+        batch = _episodes([f[2] for f in done[-wanted:]], [f[3] for f in done[-wanted:]])
+        infos = [dict(f[3].info["episode"]) for f in done]
+        return batch, infos, int(elapsed.sum())
 
     @staticmethod
     def _mixed(dist: FactoredConditional, epsilon: float) -> FactoredConditional:
@@ -322,7 +349,7 @@ class ACACLearner(Learner):
         return compute_gae(
             values=np.where(steps, values, 0.0),
             next_values=np.where(steps, next_values, 0.0),
-            reward_sum=batch.reward,
+            reward_sum=np.where(steps, batch.reward_sum, 0.0),
             reward_discounted=np.where(steps, batch.reward, 0.0),
             durations=batch.duration,
             terminated=terminal,

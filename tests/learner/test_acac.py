@@ -145,6 +145,10 @@ def test_a_round_trains_on_the_last_finished_episodes_and_counts_them(envs):
     batch, finished, ticks = learner.collect(envs, 1.0)
     assert len(finished) >= 3 and batch.choosing.shape[1] == 3
     assert ticks >= sum(e["ticks"] for e in finished)  # unfinished episodes' ticks count too
+    # the round ran until the tick of the third finish had passed in every environment: the
+    # earliest finishes of the round are its first episodes, whose round tick is their length
+    third = sorted(e["ticks"] for e in finished)[2]
+    assert ticks >= envs.num_envs * third
     lengths = batch.length
     assert (lengths >= 1).all() and batch.choosing.shape[0] == lengths.max() + 1
     # every agent chooses at an episode's first point, and rows after the final point are padding
