@@ -38,7 +38,6 @@ decision of an agent is trained on, including one whose option the episode's end
 from __future__ import annotations
 
 import copy
-import math
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
@@ -46,7 +45,7 @@ import numpy as np
 import torch
 from torch import Tensor, nn
 
-from maopg.env.contract import DecisionPoint, EnvSpec
+from maopg.env.contract import EnvSpec
 from maopg.env.vector import SeededVectorEnv
 from maopg.learner.adam import Adam
 from maopg.learner.base import (
@@ -58,15 +57,12 @@ from maopg.learner.base import (
     require_finite_parameters,
 )
 from maopg.learner.gae import DiscountForm, compute_gae
+from maopg.learner.rounds import Episodes, collect_round, mix_agents
 from maopg.policy import (
     DistributionActor,
-    ObsBatch,
-    episode_starts,
     set_precision,
-    stack_conditions,
 )
 from maopg.policy.agent_centric import AgentCentricCritic, AgentCentricPolicy, scan
-from maopg.policy.conditional import FactoredConditional, mix_uniform
 from maopg.policy.joint_size import BuildTarget
 from maopg.settings import Settings, setting
 
@@ -110,73 +106,6 @@ class ACACConfig(Settings):
             return 0.0
         fraction = min(episodes / self.explore_decay, 1.0)
         return self.explore_eps + (self.explore_eps_end - self.explore_eps) * fraction
-
-
-@dataclass
-class Episodes:
-    """A round's training batch: ``B`` finished episodes as ``[T, B]`` grids over their decision
-    points, row ``J_b`` of episode ``b`` its final point (padding after it: ``valid`` false)."""
-
-    obs: ObsBatch
-    """``T * B`` rows, time-major."""
-    choosing: Tensor
-    """``bool [T, B, N]``."""
-    running: Tensor
-    available: Tensor
-    joint: Tensor
-    """``int64 [T, B, N]``: the joint option taken at each decision point."""
-    reward: np.ndarray
-    """``[T, B]``: the discounted reward of the step from each point."""
-    reward_sum: np.ndarray
-    """``[T, B]``: its summed reward."""
-    duration: np.ndarray
-    terminated: np.ndarray
-    """``bool [B]``: the episode ended in a terminal state (else a timeout)."""
-    length: np.ndarray
-    """``int [B]``: decision points ``J_b`` before the final point."""
-
-    @property
-    def steps(self) -> Tensor:
-        """``bool [T, B]``: rows that are a step (a decision point that was acted on)."""
-        t = torch.arange(self.choosing.shape[0]).unsqueeze(1)
-        return t < torch.from_numpy(self.length).unsqueeze(0)
-
-    @property
-    def starts(self) -> Tensor:
-        starts = torch.zeros(self.choosing.shape[:2], dtype=torch.bool)
-        starts[0] = True
-        return starts
-
-
-def _episodes(rows: list[list[tuple[DecisionPoint, np.ndarray]]], finals: list) -> Episodes:
-    """Stack episodes given as ``(point, joint)`` rows plus each one's final point."""
-    longest = max(len(r) for r in rows) + 1
-    n = len(finals[0].choosing)
-    points, joints = [], []
-    filler = finals[0]
-    for episode, final in zip(rows, finals, strict=True):
-        seq = [p for p, _ in episode] + [final]
-        points.append(seq + [filler] * (longest - len(seq)))
-        joints.append([j for _, j in episode] + [np.zeros(n, np.int64)] * (longest - len(episode)))
-    by_time = [points[b][t] for t in range(longest) for b in range(len(rows))]
-    obs = ObsBatch.from_decision_points(by_time)
-    choosing, running, available = (
-        c.view(longest, len(rows), -1) for c in stack_conditions(by_time)
-    )
-    reward = np.zeros((longest, len(rows)))
-    reward_sum = np.zeros((longest, len(rows)))
-    duration = np.ones((longest, len(rows)))
-    for b, seq in enumerate(points):
-        for t, point in enumerate(seq[1 : len(rows[b]) + 1]):
-            reward[t, b] = point.discounted_reward
-            reward_sum[t, b] = point.reward
-            duration[t, b] = point.duration
-    joint = torch.from_numpy(np.stack([np.stack(j) for j in joints], axis=1))
-    terminated = np.array([f.terminated for f in finals])
-    length = np.array([len(r) for r in rows])
-    return Episodes(
-        obs, choosing, running, available, joint, reward, reward_sum, duration, terminated, length
-    )
 
 
 class ACACLearner(Learner):
@@ -237,61 +166,15 @@ class ACACLearner(Learner):
     def collect(
         self, envs: SeededVectorEnv, epsilon: float
     ) -> tuple[Episodes, list[dict[str, Any]], int]:
-        """One round (module docstring): the batch, the info of every episode that finished in
-        the round, the ticks simulated.
-
-        ACAC's environments advance a tick at a time and its round stops at the first tick by
-        which ``episodes_per_update`` episodes have finished; these advance a decision point at
-        a time, each by its own option's ticks. So every finish is kept with the round tick it
-        came at, the environments step until none can still finish at or before the tick of
-        the ``episodes_per_update``-th earliest finish (every one has passed it), and the round
-        is what ACAC's would have been: the episodes finished by then, ordered by tick (then
-        environment), the last ``episodes_per_update`` of them its batch. The ticks simulated
-        past that tick are in the count all the same."""
-        cfg: ACACConfig = self.config
-        wanted = cfg.episodes_per_update
-        envs.restart()
-        state = self.policy.initial_state(envs.num_envs).to(self.device)
-        open_rows: list[list[tuple[DecisionPoint, np.ndarray]]] = [[] for _ in envs.points]
-        finishes: list[tuple[int, int, list, DecisionPoint]] = []
-        """(round tick, environment, rows, final point) of every finished episode."""
-        elapsed = np.zeros(envs.num_envs, dtype=np.int64)
-        cutoff = math.inf
-        while elapsed.min() < cutoff:
-            points = envs.points
-            obs = ObsBatch.from_decision_points(points).to(self.device)
-            conditions = [c.to(self.device) for c in stack_conditions(points)]
-            starts = episode_starts(points).to(self.device)
-            dist, state = self.policy.step(obs, *conditions, state, starts)
-            if epsilon:
-                dist = self._mixed(dist, epsilon)
-            joint = dist.sample(self.setup.sample_gen).cpu().numpy()
-            kept = [copy.deepcopy(p) for p in points]
-            results = envs.step(joint)
-            for e, result in enumerate(results):
-                open_rows[e].append((kept[e], joint[e]))
-                elapsed[e] += result.outcome.duration
-                if result.final is not None:
-                    final = copy.deepcopy(result.final)
-                    finishes.append((int(elapsed[e]), e, open_rows[e], final))
-                    open_rows[e] = []
-            if len(finishes) >= wanted:
-                cutoff = sorted(f[0] for f in finishes)[wanted - 1]
-        done = sorted((f for f in finishes if f[0] <= cutoff), key=lambda f: (f[0], f[1]))
-        batch = _episodes([f[2] for f in done[-wanted:]], [f[3] for f in done[-wanted:]])
-        infos = [dict(f[3].info["episode"]) for f in done]
-        return batch, infos, int(elapsed.sum())
-
-    @staticmethod
-    def _mixed(dist: FactoredConditional, epsilon: float) -> FactoredConditional:
-        """``dist`` with each choosing agent's factor mixed with the uniform over its available
-        options, ``(1 − ε) π_i + ε / |A_i|``."""
-        eps = torch.full((len(dist.choosing),), epsilon, device=dist.choosing.device)
-        mixed = [
-            torch.where(dist.choosing[:, i : i + 1], mix_uniform(lp, eps), lp)
-            for i, lp in enumerate(dist.agent_log_probs)
-        ]
-        return FactoredConditional(mixed, dist.choosing, dist.running)
+        """One round (:func:`~maopg.learner.rounds.collect_round`)."""
+        return collect_round(
+            envs,
+            self.policy,
+            epsilon,
+            self.config.episodes_per_update,
+            self.setup.sample_gen,
+            self.device,
+        )
 
     def _agent_log_probs(self, batch: Episodes, epsilon: float) -> tuple[list[Tensor], Tensor]:
         """Each agent's ε-mixed log-probability ``[T, B]`` of its option at every point, and the
@@ -314,7 +197,7 @@ class ACACLearner(Learner):
         )
         entropy = dist.entropy().view(steps)
         if epsilon:
-            dist = self._mixed(dist, epsilon)
+            dist = mix_agents(dist, epsilon)
         joint = batch.joint.flatten(0, 1).to(self.device)
         log_probs = [
             lp.gather(-1, joint[:, i : i + 1]).squeeze(-1).view(steps)

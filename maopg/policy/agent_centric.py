@@ -47,7 +47,9 @@ def time_embedding(ticks: Tensor) -> Tensor:
     return torch.stack((torch.sin(tau), torch.cos(tau)), dim=-1)
 
 
-def _linear(in_dim: int, out_dim: int, gain: float) -> nn.Linear:
+def linear(in_dim: int, out_dim: int, gain: float) -> nn.Linear:
+    """A linear layer, Xavier-uniform with ``gain`` and a zero bias (the MacroMARL and ACAC
+    networks' initialisation)."""
     layer = nn.Linear(in_dim, out_dim)
     nn.init.xavier_uniform_(layer.weight, gain=gain)
     nn.init.zeros_(layer.bias)
@@ -55,28 +57,34 @@ def _linear(in_dim: int, out_dim: int, gain: float) -> nn.Linear:
 
 
 class AgentInput(nn.Module):
-    """Agent ``agent``'s own observation and its event time → ``[B, width]`` features."""
+    """Agent ``agent``'s own observation and (``embed_time``) its event time → ``[B, width]``
+    features."""
 
-    def __init__(self, spec: EnvSpec, agent: int, width: int, cnn_features: int) -> None:
+    def __init__(
+        self, spec: EnvSpec, agent: int, width: int, cnn_features: int, embed_time: bool = True
+    ) -> None:
         super().__init__()
         self.agent = agent
+        self.embed_time = embed_time
         self.columns = vector_slices(spec)[agent]
         self.cnn = (
             NatureCNN(spec.image_shape, cnn_features) if spec.image_shape is not None else None
         )
-        in_dim = self.columns.stop - self.columns.start + 2
+        in_dim = self.columns.stop - self.columns.start + (2 if embed_time else 0)
         in_dim += cnn_features if self.cnn is not None else 0
         self.mlp = nn.Sequential(
-            _linear(in_dim, width, LEAKY_GAIN),
+            linear(in_dim, width, LEAKY_GAIN),
             nn.LeakyReLU(),
-            _linear(width, width, LEAKY_GAIN),
+            linear(width, width, LEAKY_GAIN),
             nn.LeakyReLU(),
         )
 
     def forward(self, obs: ObsBatch) -> Tensor:
-        if obs.ticks is None:
-            raise ValueError("an agent-centric network needs the points' ticks (ObsBatch.ticks)")
-        parts = [obs.vectors[:, self.columns], time_embedding(obs.ticks)]
+        parts = [obs.vectors[:, self.columns]]
+        if self.embed_time:
+            if obs.ticks is None:
+                raise ValueError("embedding event times needs the points' ticks (ObsBatch.ticks)")
+            parts.append(time_embedding(obs.ticks))
         if self.cnn is not None:
             images = obs.dense_images()
             if images is None:
@@ -117,23 +125,36 @@ def scan(
 
 
 class AgentCentricPolicy(OptionPolicy):
-    """One recurrent actor per agent (module docstring); its state ``[B, N, width]``."""
+    """One recurrent actor per agent (module docstring); its state ``[B, N, width]``.
+    ``embed_time`` and ``head_norm`` (the event time in the input, the LayerNorm before the
+    output) are ACAC's; without them it is the MacroMARL actors'
+    (:mod:`maopg.learner.mac_iaicc`)."""
 
     behaviour_version = 1
 
-    def __init__(self, spec: EnvSpec, *, width: int = 32, cnn_features: int = 256) -> None:
+    def __init__(
+        self,
+        spec: EnvSpec,
+        *,
+        width: int = 32,
+        cnn_features: int = 256,
+        embed_time: bool = True,
+        head_norm: bool = True,
+    ) -> None:
         super().__init__()
         self.option_counts = spec.option_counts
         self.width = width
         n = spec.num_agents
-        self.inputs = nn.ModuleList(AgentInput(spec, i, width, cnn_features) for i in range(n))
+        self.inputs = nn.ModuleList(
+            AgentInput(spec, i, width, cnn_features, embed_time) for i in range(n)
+        )
         self.cells = nn.ModuleList(nn.GRUCell(width, width) for _ in range(n))
         self.heads = nn.ModuleList(
             nn.Sequential(
-                _linear(width, width, LEAKY_GAIN),
+                linear(width, width, LEAKY_GAIN),
                 nn.LeakyReLU(),
-                nn.LayerNorm(width),
-                _linear(width, k, 1.0),
+                *([nn.LayerNorm(width)] if head_norm else []),
+                linear(width, k, 1.0),
             )
             for k in spec.option_counts
         )

@@ -40,6 +40,7 @@ SECTION = {
     "ppo": ["ppo.epochs=2"],
     "dqn": ["dqn.learning_starts=40", "dqn.train_every=20"],
     "acac": ["acac.episodes_per_update=1"],
+    "maciaicc": ["maciaicc.episodes_per_update=1"],
 }
 
 
@@ -186,6 +187,7 @@ def test_every_method_trains_a_tiny_budget(tmp_path, task, method):
         ("partial-rnn", 480, []),
         ("async-rnn", 480, ["ppo.option_history=true", "ppo.memory_norm=true"]),
         ("acac", 600, ["env.max_ticks=40"]),
+        ("mac-iaicc", 600, ["env.max_ticks=40"]),
     ],
 )
 def test_kill_and_resume_reproduces_the_uninterrupted_run(tmp_path, capsys, method, samples, extra):

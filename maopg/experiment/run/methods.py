@@ -22,6 +22,7 @@ from maopg.env.contract import EnvSpec, Strategy
 from maopg.experiment.run.directory import TIMING_COLUMNS
 from maopg.learner import SHARED_COLUMNS, ACACLearner, Learner, MacDQNLearner, MAPPOLearner
 from maopg.learner.acac import agent_centric_policy
+from maopg.learner.mac_iaicc import MacIAICCLearner, macro_actors
 from maopg.learner.macdqn import joint_q_network
 from maopg.learner.mappo import (
     autoregressive_policy,
@@ -171,3 +172,11 @@ register_method(Method("partial-rnn", "continue", MAPPOLearner, partial_policy, 
 # (Agent-Centric Actor-Critic, ICML 2025; maopg.learner.acac), decentralized recurrent actors
 # and an attention critic, trained on whole episodes collected in rounds.
 register_method(Method("acac", "continue", ACACLearner, agent_centric_policy))
+# MacroMARL's asynchronous actor-critics (Xiao, Tan, Amato, NeurIPS 2022): one actor per agent
+# on its own macro-action trajectory, with individual centralized critics (Mac-IAICC), critics of
+# the agent's own history (Mac-IAC) or one centralized critic (Naive Mac-IACC).
+register_method(Method("mac-iaicc", "continue", MacIAICCLearner, macro_actors))
+register_method(Method("mac-iac", "continue", MacIAICCLearner, macro_actors, (("critic", "own"),)))
+register_method(
+    Method("naive-mac-iacc", "continue", MacIAICCLearner, macro_actors, (("critic", "joint"),))
+)

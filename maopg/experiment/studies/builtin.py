@@ -11,6 +11,7 @@ from functools import partial
 
 from maopg.experiment.studies.registry import (
     PAPER,
+    Settings,
     Study,
     StudyTask,
     frozen,
@@ -181,6 +182,26 @@ samples in a 6x6 pilot (139K published at 466K samples, ε still 0.63), so its r
 1.5M samples and are read on either counter."""
 
 
+def _macromarl(size: int) -> Settings:
+    """Mac-IAICC as MacroMARL's Box Pushing scripts run it at ``size``: 32 environments and 32
+    episodes a round, γ = 0.98, the target critics copied every 128 episodes on 6x6 and 64 on
+    the larger grids, ε over 4,000 episodes (6,000 on 10x10), and the budget of ACAC's runs
+    (:data:`ACAC_PUBLISHED`: its rounds discard unfinished episodes the same way)."""
+    return frozen(
+        {
+            "mac-iaicc": frozen(
+                {
+                    "num_envs": 32,
+                    "gamma": 0.98,
+                    "total_samples": 1_500_000,
+                    "maciaicc.target_every": 128 if size == 6 else 64,
+                    "maciaicc.explore_decay": 6_000 if size == 10 else 4_000,
+                }
+            )
+        }
+    )
+
+
 def _box_pushing_grid(size: int) -> Study:
     """The Box Pushing grid study at one size: its methods from the grid's 5-bit observations, 5
     seeds, 500K samples (maopg's counter; box-pushing reference §8), evaluating during training
@@ -201,19 +222,19 @@ def _box_pushing_grid(size: int) -> Study:
     long with evaluation as without, within the noise of a shared machine)."""
     return Study(
         f"box-pushing-{size}",
-        f"async, partial, async-rnn, mac-dqn and acac on the {size}x{size} Box Pushing grid, "
-        f"beside the published bp{size} curves",
+        f"async, partial, async-rnn, mac-dqn, acac and mac-iaicc on the {size}x{size} Box "
+        f"Pushing grid, beside the published bp{size} curves",
         (
             StudyTask(
                 "box_pushing_grid",
                 (0, 1, 2, 3, 4),
                 frozen({"size": size}),
                 frozen({"total_samples": 500_000}),
-                frozen({**RECURRENT_HISTORY, **ACAC_PUBLISHED}),
+                frozen({**RECURRENT_HISTORY, **ACAC_PUBLISHED, **_macromarl(size)}),
                 threshold=BOX_PUSHING_THRESHOLD,
             ),
         ),
-        (*BOX_PUSHING_METHODS, "acac"),
+        (*BOX_PUSHING_METHODS, "acac", "mac-iaicc"),
         overrides=LITERATURE_EVALUATION,
         published=f"bp{size}",
     )

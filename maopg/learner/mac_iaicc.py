@@ -1,0 +1,381 @@
+"""Mac-IAICC (Xiao, Tan, Amato, NeurIPS 2022) and the siblings that share its code: asynchronous
+macro-action actor-critics with one actor per agent, trained on each agent's own macro-action
+trajectory.
+
+- **Actors** (:class:`~maopg.policy.agent_centric.AgentCentricPolicy` without ACAC's time
+  embedding and LayerNorm): per agent, Linear → leaky ReLU ×2, a GRU cell advanced at the
+  agent's own decisions, Linear → leaky ReLU, the options' logits; no parameter sharing.
+- **Critics**, by ``maciaicc.critic``:
+
+  - ``history`` — **Mac-IAICC**: one *individual centralized* critic per agent, a GRU over the
+    joint observation advanced at every decision point of the team, read at the agent's own;
+  - ``own`` — **Mac-IAC**: one critic per agent over its own observations only;
+  - ``joint`` — **Naive Mac-IACC**: one centralized critic, trained on the team's decision
+    points; an agent's advantage for a macro-action is the team's advantage of the last joint
+    step inside it (the "naive" part: it ignores the rest of the agent's macro-action).
+
+- **Targets** (``history``, ``own``): over agent i's macro-action k from its decision point
+  ``t_k`` to its next one (or the episode's final point), ``R_k = Σ γ^j r`` over its ticks and
+  ``y_k = R_k + γ^{τ_k} V̄_i(h_{t_{k+1}})`` with ``τ_k`` its ticks (0 after a terminal state;
+  a timeout bootstraps), from a target copy of the critics refreshed every ``target_every``
+  episodes. One critic step on the squared error, then ``A_k = y_k − V_i(h_{t_k})`` from the
+  stepped critic, then one actor step on ``−γ^{e_k} log μ_i(a_k) A_k`` averaged over the
+  agent's decisions (``e_k``: the index of its last tick; ``μ``: the ε-mixed policy, as
+  collected). No entropy bonus, advantage normalisation or gradient clipping.
+- **Collection**: whole episodes in rounds (:func:`~maopg.learner.rounds.collect_round`), ε
+  falling linearly over ``explore_decay`` episodes.
+
+From the authors' public code (MacroMARL), where the paper leaves a choice: the sizes
+(32-wide, critics Linear ×2 and a GRU), the γ^{e_k} weight of the policy gradient, critic and
+actor learning rates (3e-3, 3e-4) and their Box Pushing rounds (32 episodes, 32 environments,
+target every 128 episodes on 6x6, ε over 4,000 episodes). Its Box Pushing scripts run a
+state-reading critic; this reads the joint observation history as the paper describes, so it
+runs on every task. Every decision is trained on, one whose option the episode's end cut
+short included (that code drops those).
+"""
+
+from __future__ import annotations
+
+import copy
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+import torch
+from torch import Tensor, nn
+
+from maopg.env.contract import EnvSpec
+from maopg.env.vector import SeededVectorEnv
+from maopg.learner.adam import Adam
+from maopg.learner.base import (
+    Actor,
+    Learner,
+    LearnerSetup,
+    episode_metrics,
+    require_finite,
+    require_finite_parameters,
+)
+from maopg.learner.rounds import Episodes, collect_round, mix_agents
+from maopg.policy import DistributionActor, ObsBatch, set_precision
+from maopg.policy.agent_centric import LEAKY_GAIN, AgentCentricPolicy, AgentInput, linear, scan
+from maopg.policy.batch import vector_slices
+from maopg.policy.encoders import NatureCNN
+from maopg.policy.joint_size import BuildTarget
+from maopg.settings import Settings, setting
+
+CRITICS = ("history", "own", "joint")
+
+
+@dataclass
+class MacIAICCConfig(Settings):
+    """The ``maciaicc.*`` settings; defaults are MacroMARL's Mac-IAICC on 6x6 Box Pushing."""
+
+    critic: str = setting("history", choices=CRITICS)
+    """``history``: Mac-IAICC; ``own``: Mac-IAC; ``joint``: Naive Mac-IACC (module docstring)."""
+    lr: float = setting(3e-4, gt=0.0)
+    critic_lr: float = setting(3e-3, gt=0.0)
+    episodes_per_update: int = setting(32, ge=1)
+    target_every: int = setting(128, ge=1)
+    explore_eps: float = setting(1.0, ge=0.0, le=1.0)
+    explore_eps_end: float = setting(0.01, ge=0.0, le=1.0)
+    explore_decay: int = setting(4_000, ge=1)
+    width: int = setting(32, ge=1)
+
+    def validate(self) -> None:
+        """Every field is checked by its bounds."""
+
+    def exploration(self, episodes: int) -> float:
+        """ε after ``episodes`` episodes of the counter."""
+        if not self.explore_eps:
+            return 0.0
+        fraction = min(episodes / self.explore_decay, 1.0)
+        return self.explore_eps + (self.explore_eps_end - self.explore_eps) * fraction
+
+
+class JointInput(nn.Module):
+    """The joint observation (every agent's vector, and camera through one CNN) → features."""
+
+    def __init__(self, spec: EnvSpec, width: int, cnn_features: int = 256) -> None:
+        super().__init__()
+        self.cnn = (
+            NatureCNN(spec.image_shape, cnn_features) if spec.image_shape is not None else None
+        )
+        in_dim = vector_slices(spec)[-1].stop
+        in_dim += spec.num_agents * cnn_features if self.cnn is not None else 0
+        self.mlp = nn.Sequential(
+            linear(in_dim, width, LEAKY_GAIN),
+            nn.LeakyReLU(),
+            linear(width, width, LEAKY_GAIN),
+            nn.LeakyReLU(),
+        )
+
+    def forward(self, obs: ObsBatch) -> Tensor:
+        parts = [obs.vectors]
+        if self.cnn is not None:
+            images = obs.dense_images()
+            if images is None:
+                raise ValueError("this network reads images but the batch has none")
+            parts.append(self.cnn(images.flatten(0, 1)).view(len(images), -1))
+        return self.mlp(torch.cat(parts, dim=-1))
+
+
+class HistoryCritics(nn.Module):
+    """``heads`` recurrent critics: each its own input network, GRU cell and value head. A critic
+    reading the joint observation advances at every decision point of the team; one reading
+    its agent's own (``own``) only where that agent chooses."""
+
+    def __init__(self, spec: EnvSpec, kind: str, width: int) -> None:
+        super().__init__()
+        self.kind = kind
+        count = 1 if kind == "joint" else spec.num_agents
+        self.inputs = nn.ModuleList(
+            AgentInput(spec, i, width, 256, embed_time=False)
+            if kind == "own"
+            else JointInput(spec, width)
+            for i in range(count)
+        )
+        self.cells = nn.ModuleList(nn.GRUCell(width, width) for _ in range(count))
+        self.heads = nn.ModuleList(linear(width, 1, 1.0) for _ in range(count))
+        self.width = width
+
+    def values(self, batch: Episodes, device: torch.device) -> Tensor:
+        """``[T, B, heads]`` values along the batch's points (the final point included)."""
+        obs = batch.obs.to(device)
+        steps, episodes = batch.choosing.shape[:2]
+        advancing = batch.choosing.to(device)
+        if self.kind != "own":  # the team's history: every point of it
+            advancing = torch.ones(steps, episodes, len(self.cells), dtype=torch.bool)
+        states = scan(
+            self.cells,
+            [net(obs) for net in self.inputs],
+            advancing.to(device),
+            batch.starts.to(device),
+            torch.zeros(episodes, len(self.cells), self.width, device=device),
+        )
+        return torch.stack([head(states[:, :, i]) for i, head in enumerate(self.heads)], 2)[..., 0]
+
+
+@dataclass
+class MacroSteps:
+    """Each agent's macro-actions in a batch: row ``t`` and episode ``b`` where it chose, the row
+    it next chose at (or the final point), their discounted reward, discount to the next value,
+    terminal flag and the weight ``γ^{e}`` of the policy gradient. ``team_row`` is the last
+    team decision point inside the macro-action (Naive Mac-IACC's advantage)."""
+
+    rows: np.ndarray
+    episodes: np.ndarray
+    next_rows: np.ndarray
+    team_rows: np.ndarray
+    reward: np.ndarray
+    discount: np.ndarray
+    terminal: np.ndarray
+    weight: np.ndarray
+
+
+def macro_steps(batch: Episodes, agent: int, gamma: float) -> MacroSteps:
+    """Agent ``agent``'s macro-actions in ``batch`` (:class:`MacroSteps`)."""
+    ticks = batch.obs.ticks
+    assert ticks is not None
+    ticks = ticks.view(batch.choosing.shape[:2]).numpy()
+    found: list[tuple] = []
+    for b, length in enumerate(batch.length):
+        chose = [t for t in range(length) if batch.choosing[t, b, agent]]
+        for k, t in enumerate(chose):
+            nxt = chose[k + 1] if k + 1 < len(chose) else int(length)
+            offsets = ticks[t:nxt, b] - ticks[t, b]
+            reward = float((gamma**offsets * batch.reward[t:nxt, b]).sum())
+            elapsed = int(ticks[nxt, b] - ticks[t, b])
+            terminal = nxt == length and bool(batch.terminated[b])
+            weight = gamma ** (int(ticks[nxt, b]) - 1)
+            found.append((t, b, nxt, nxt - 1, reward, gamma**elapsed, terminal, weight))
+    columns = list(zip(*found, strict=True)) if found else [()] * 8
+    return MacroSteps(*(np.array(c) for c in columns))
+
+
+class MacIAICCLearner(Learner):
+    """Mac-IAICC and its siblings (module docstring)."""
+
+    Config = MacIAICCConfig
+    section = "maciaicc"
+    columns: ClassVar[tuple[str, ...]] = (
+        "policy_loss",
+        "value_loss",
+        "entropy",
+        "epsilon",
+        "published_steps",
+    )
+    """``entropy``: the policy's own (unmixed), summed over the choosing agents of a decision
+    point; ``published_steps``: the summed length of the finished training episodes so far."""
+    policy_key = "policy"
+
+    def __init__(self, policy: AgentCentricPolicy, setup: LearnerSetup) -> None:
+        super().__init__(policy, setup)
+        cfg: MacIAICCConfig = self.config
+        self.critic = HistoryCritics(setup.spec, cfg.critic, cfg.width).to(self.device)
+        set_precision(self.critic, setup.precision)
+        self.target = copy.deepcopy(self.critic)
+        self.actor_opts = [
+            Adam([*net.parameters(), *cell.parameters(), *head.parameters()], lr=cfg.lr)
+            for net, cell, head in zip(policy.inputs, policy.cells, policy.heads, strict=True)
+        ]
+        self.critic_opt = Adam(self.critic.parameters(), lr=cfg.critic_lr)
+        self.episodes = 0
+        self.published_steps = 0
+
+    def iteration(self, envs: SeededVectorEnv, samples: int) -> tuple[dict[str, Any], int]:
+        cfg: MacIAICCConfig = self.config
+        epsilon = cfg.exploration(self.episodes)
+        batch, finished, ticks = collect_round(
+            envs, self.policy, epsilon, cfg.episodes_per_update, self.setup.sample_gen, self.device
+        )
+        self.published_steps += sum(e["ticks"] for e in finished)
+        stats = self.update(batch, epsilon)
+        before, self.episodes = self.episodes, self.episodes + cfg.episodes_per_update
+        if self.episodes // cfg.target_every > before // cfg.target_every:
+            self.target.load_state_dict(self.critic.state_dict())
+        row = {
+            "option_steps": int(batch.steps.sum()),
+            **episode_metrics(finished),
+            "option_step_reward": float(batch.reward_sum[batch.steps.numpy()].mean()),
+            **stats,
+            "epsilon": epsilon,
+            "published_steps": self.published_steps,
+        }
+        return row, ticks
+
+    def _targets(self, batch: Episodes, agent_steps: list[MacroSteps]) -> list[Tensor]:
+        """Each agent's ``y_k`` (or, ``joint``, the team's ``y`` per point) from the target."""
+        with torch.no_grad():
+            values = self.target.values(batch, self.device).cpu().numpy()
+        gamma = self.setup.gamma
+        if self.config.critic == "joint":
+            steps = batch.steps.numpy()
+            following = np.concatenate([values[1:, :, 0], np.zeros_like(values[:1, :, 0])])
+            last = np.zeros_like(steps)
+            last[batch.length - 1, np.arange(len(batch.length))] = True
+            ended = last & batch.terminated[None, :]
+            team = batch.reward + gamma**batch.duration * np.where(ended, 0.0, following)
+            return [torch.as_tensor(team, dtype=torch.float32)]
+        return [
+            torch.as_tensor(
+                s.reward
+                + s.discount * np.where(s.terminal, 0.0, values[s.next_rows, s.episodes, i]),
+                dtype=torch.float32,
+            )
+            for i, s in enumerate(agent_steps)
+        ]
+
+    def update(self, batch: Episodes, epsilon: float) -> dict[str, float]:
+        """One critic step, then one step of each actor (module docstring)."""
+        device, joint = self.device, self.config.critic == "joint"
+        agent_steps = [macro_steps(batch, i, self.setup.gamma) for i in range(len(self.actor_opts))]
+        targets = [y.to(device) for y in self._targets(batch, agent_steps)]
+        values = self.critic.values(batch, device)
+        if joint:
+            steps = batch.steps.to(device)
+            errors = (targets[0] - values[..., 0])[steps]
+        else:
+            errors = torch.cat(
+                [
+                    targets[i] - values[s.rows, s.episodes, i]
+                    for i, s in enumerate(agent_steps)
+                    if len(s.rows)
+                ]
+            )
+        value_loss = errors.square().mean()
+        require_finite(value_loss, "the critic's loss")
+        self.critic_opt.zero_grad()
+        value_loss.backward()
+        self.critic_opt.step()
+        with torch.no_grad():
+            stepped = self.critic.values(batch, device)
+        log_probs, entropy = self._log_probs(batch, epsilon)
+        losses = []
+        for i, (s, optimizer) in enumerate(zip(agent_steps, self.actor_opts, strict=True)):
+            if not len(s.rows):
+                continue
+            if joint:
+                advantage = (targets[0] - stepped[..., 0])[s.team_rows, s.episodes]
+            else:
+                advantage = targets[i] - stepped[s.rows, s.episodes, i]
+            weight = torch.as_tensor(s.weight, dtype=torch.float32, device=device)
+            chosen = log_probs[i][s.rows, s.episodes]
+            losses.append((-(weight * chosen * advantage).mean(), optimizer))
+        for loss, optimizer in losses:
+            require_finite(loss, "an actor's loss")
+            optimizer.zero_grad()
+        sum(loss for loss, _ in losses).backward()
+        for _, optimizer in losses:
+            optimizer.step()
+        require_finite_parameters(self.policy, "the actors")
+        require_finite_parameters(self.critic, "the critics")
+        return {
+            "policy_loss": float(np.mean([loss.item() for loss, _ in losses])),
+            "value_loss": value_loss.item(),
+            "entropy": entropy[batch.steps.to(device)].mean().item(),
+        }
+
+    def _log_probs(self, batch: Episodes, epsilon: float) -> tuple[list[Tensor], Tensor]:
+        """Each agent's ε-mixed log-probability ``[T, B]`` of its option at every point, and the
+        policy's own entropy ``[T, B]`` (summed over the choosing agents)."""
+        device, steps = self.device, batch.choosing.shape[:2]
+        policy: AgentCentricPolicy = self.policy  # type: ignore[assignment]
+        obs = batch.obs.to(device)
+        states = scan(
+            policy.cells,
+            [net(obs) for net in policy.inputs],
+            batch.choosing.to(device),
+            batch.starts.to(device),
+            policy.initial_state(steps[1]).to(device),
+        )
+        dist = policy.heads_at(
+            states.flatten(0, 1),
+            batch.choosing.flatten(0, 1).to(device),
+            batch.running.flatten(0, 1).to(device),
+            batch.available.flatten(0, 1).to(device),
+        )
+        entropy = dist.entropy().view(steps)
+        if epsilon:
+            dist = mix_agents(dist, epsilon)
+        chosen = batch.joint.flatten(0, 1).to(device)
+        log_probs = [
+            lp.gather(-1, chosen[:, i : i + 1]).squeeze(-1).view(steps)
+            for i, lp in enumerate(dist.agent_log_probs)
+        ]
+        return log_probs, entropy
+
+    def final_state(self) -> dict[str, Any]:
+        return {"policy": self.policy.state_dict(), "critic": self.critic.state_dict()}
+
+    def state_dict(self) -> dict[str, Any]:
+        return {
+            **self.final_state(),
+            "target": self.target.state_dict(),
+            "actor_opts": [o.state_dict() for o in self.actor_opts],
+            "critic_opt": self.critic_opt.state_dict(),
+            "episodes": self.episodes,
+            "published_steps": self.published_steps,
+        }
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        self.policy.load_state_dict(state["policy"])
+        self.critic.load_state_dict(state["critic"])
+        self.target.load_state_dict(state["target"])
+        for optimizer, saved in zip(self.actor_opts, state["actor_opts"], strict=True):
+            optimizer.load_state_dict(saved)
+        self.critic_opt.load_state_dict(state["critic_opt"])
+        self.episodes = int(state["episodes"])
+        self.published_steps = int(state["published_steps"])
+
+    @staticmethod
+    def actor(policy: nn.Module, config: Any, *, greedy: bool, seed: int) -> Actor:
+        return DistributionActor(policy, greedy=greedy, seed=seed)  # type: ignore[arg-type]
+
+
+def macro_actors(
+    spec: EnvSpec, *, hidden: int, layers: int, config: MacIAICCConfig, target: BuildTarget
+) -> AgentCentricPolicy:
+    """The MacroMARL actors at ``maciaicc.width`` (the run's ``hidden``/``layers`` size maopg's
+    own networks)."""
+    del hidden, layers, target
+    return AgentCentricPolicy(spec, width=config.width, embed_time=False, head_norm=False)
