@@ -62,7 +62,7 @@ BAD_TRAIN = [
     (["ppo.gae_lambda=1.5"], r"ppo\.gae_lambda must be <= 1, got 1\.5"),
     (["ppo.gae_lambda=-0.1"], r"ppo\.gae_lambda must be >= 0, got -0\.1"),
     (["ppo.clip=-1"], r"ppo\.clip must be >= 0, got -1"),
-    (["ppo.discount=yearly"], r"ppo\.discount must be one of \['smdp', 'option'\]"),
+    (["ppo.discount=yearly"], r"ppo\.discount must be one of \['smdp', 'event', 'option'\]"),
     (["num_workers=-1"], r"num_workers must be >= 0, got -1"),
     (["--seed", "-1"], r"seed must be >= 0, got -1"),
     (["gamma=nan"], r"gamma must be a finite number, got nan"),
