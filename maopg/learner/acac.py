@@ -37,31 +37,19 @@ decision of an agent is trained on, including one whose option the episode's end
 
 from __future__ import annotations
 
-import copy
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import numpy as np
 import torch
-from torch import Tensor, nn
+from torch import Tensor
 
 from maopg.env.contract import EnvSpec
-from maopg.env.vector import SeededVectorEnv
-from maopg.learner.adam import Adam
 from maopg.learner.base import (
-    Actor,
-    Learner,
     LearnerSetup,
-    episode_metrics,
-    require_finite,
-    require_finite_parameters,
 )
 from maopg.learner.gae import DiscountForm, compute_gae
-from maopg.learner.rounds import Episodes, collect_round, mix_agents
-from maopg.policy import (
-    DistributionActor,
-    set_precision,
-)
+from maopg.learner.rounds import Episodes, RoundsLearner
 from maopg.policy.agent_centric import AgentCentricCritic, AgentCentricPolicy, scan
 from maopg.policy.joint_size import BuildTarget
 from maopg.settings import Settings, setting
@@ -108,7 +96,7 @@ class ACACConfig(Settings):
         return self.explore_eps + (self.explore_eps_end - self.explore_eps) * fraction
 
 
-class ACACLearner(Learner):
+class ACACLearner(RoundsLearner):
     """ACAC's rounds and updates (module docstring)."""
 
     Config = ACACConfig
@@ -124,86 +112,13 @@ class ACACLearner(Learner):
     """``entropy``: the policy's own (unmixed), summed over the choosing agents of a decision
     point; ``published_steps``: ACAC's own counter, the summed length of the finished training
     episodes so far (what its published curves are plotted against)."""
-    policy_key = "policy"
 
     def __init__(self, policy: AgentCentricPolicy, setup: LearnerSetup) -> None:
-        super().__init__(policy, setup)
-        cfg: ACACConfig = self.config
-        self.critic = AgentCentricCritic(
+        cfg: ACACConfig = setup.config
+        critic = AgentCentricCritic(
             setup.spec, width=cfg.width, heads=cfg.heads, popart_beta=cfg.popart_beta
-        ).to(self.device)
-        set_precision(self.critic, setup.precision)
-        self.target = copy.deepcopy(self.critic)
-        self.actor_opts = [
-            Adam([*net.parameters(), *cell.parameters(), *head.parameters()], lr=cfg.lr)
-            for net, cell, head in zip(policy.inputs, policy.cells, policy.heads, strict=True)
-        ]
-        self.critic_opt = Adam(self.critic.parameters(), lr=cfg.critic_lr)
-        self.episodes = 0
-        """The episode counter: ``episodes_per_update`` a round (ε and the target's copies)."""
-        self.published_steps = 0
-
-    def iteration(self, envs: SeededVectorEnv, samples: int) -> tuple[dict[str, Any], int]:
-        cfg: ACACConfig = self.config
-        epsilon = cfg.exploration(self.episodes)
-        batch, finished, ticks = self.collect(envs, epsilon)
-        self.published_steps += sum(e["ticks"] for e in finished)
-        stats = self.update(batch, epsilon)
-        before, self.episodes = self.episodes, self.episodes + cfg.episodes_per_update
-        if self.episodes // cfg.target_every > before // cfg.target_every:
-            self.target.load_state_dict(self.critic.state_dict())
-        row = {
-            "option_steps": int(batch.steps.sum()),
-            **episode_metrics(finished),
-            "option_step_reward": float(batch.reward_sum[batch.steps.numpy()].mean()),
-            **stats,
-            "epsilon": epsilon,
-            "published_steps": self.published_steps,
-        }
-        return row, ticks
-
-    @torch.no_grad()
-    def collect(
-        self, envs: SeededVectorEnv, epsilon: float
-    ) -> tuple[Episodes, list[dict[str, Any]], int]:
-        """One round (:func:`~maopg.learner.rounds.collect_round`)."""
-        return collect_round(
-            envs,
-            self.policy,
-            epsilon,
-            self.config.episodes_per_update,
-            self.setup.sample_gen,
-            self.device,
         )
-
-    def _agent_log_probs(self, batch: Episodes, epsilon: float) -> tuple[list[Tensor], Tensor]:
-        """Each agent's ε-mixed log-probability ``[T, B]`` of its option at every point, and the
-        policy's own entropy ``[T, B]`` there (summed over the choosing agents)."""
-        steps, width = batch.choosing.shape[:2], self.policy.width
-        obs = batch.obs.to(self.device)
-        states = scan(
-            self.policy.cells,
-            [net(obs) for net in self.policy.inputs],
-            batch.choosing.to(self.device),
-            batch.starts.to(self.device),
-            torch.zeros(steps[1], len(self.policy.cells), width, device=self.device),
-        )
-        flat = states.flatten(0, 1)
-        dist = self.policy.heads_at(
-            flat,
-            batch.choosing.flatten(0, 1).to(self.device),
-            batch.running.flatten(0, 1).to(self.device),
-            batch.available.flatten(0, 1).to(self.device),
-        )
-        entropy = dist.entropy().view(steps)
-        if epsilon:
-            dist = mix_agents(dist, epsilon)
-        joint = batch.joint.flatten(0, 1).to(self.device)
-        log_probs = [
-            lp.gather(-1, joint[:, i : i + 1]).squeeze(-1).view(steps)
-            for i, lp in enumerate(dist.agent_log_probs)
-        ]
-        return log_probs, entropy
+        super().__init__(policy, setup, critic)
 
     def _values(self, critic: AgentCentricCritic, batch: Episodes) -> Tensor:
         """``critic``'s normalised values ``[T, B]`` along the batch's points."""
@@ -253,17 +168,17 @@ class ACACLearner(Learner):
         targets = head.normalize(returns_t)
         advantage = torch.as_tensor(advantages, dtype=torch.float32, device=self.device)
         with torch.no_grad():
-            old, _ = self._agent_log_probs(batch, epsilon)
+            old, _ = self.agent_log_probs(batch, epsilon)
         deciding = batch.choosing.to(self.device) & steps.unsqueeze(-1)
         sums = dict.fromkeys(("policy_loss", "value_loss", "entropy", "approx_kl"), 0.0)
         for _ in range(cfg.train_repeat):
             value_loss = (self._values(self.critic, batch) - targets)[steps].square().mean()
-            self._descend(value_loss, self.critic, self.critic_opt, "critic")
+            self.step_critic(value_loss)
             sums["value_loss"] += value_loss.item()
-            new, entropy = self._agent_log_probs(batch, epsilon)
+            new, entropy = self.agent_log_probs(batch, epsilon)
             sums["entropy"] += entropy[steps].mean().item()
-            actor_losses = []
-            for i, optimizer in enumerate(self.actor_opts):
+            losses, log_ratios = {}, []
+            for i in range(len(self.actor_opts)):
                 mine = deciding[..., i]
                 if not bool(mine.any()):
                     continue
@@ -271,53 +186,14 @@ class ACACLearner(Learner):
                 ratio = log_ratio.exp()
                 a = advantage[mine]
                 surrogate = torch.min(ratio * a, ratio.clamp(1 - cfg.clip, 1 + cfg.clip) * a)
-                actor_losses.append((-surrogate.mean(), optimizer, log_ratio))
-            for loss, optimizer, _ in actor_losses:
-                require_finite(loss, "an actor's loss")
-                optimizer.zero_grad()
-            sum(loss for loss, _, _ in actor_losses).backward()
-            for _, optimizer, _ in actor_losses:
-                optimizer.step()
-            sums["policy_loss"] += float(np.mean([loss.item() for loss, _, _ in actor_losses]))
-            kl = torch.cat([((r.exp() - 1) - r).detach() for _, _, r in actor_losses]).mean()
+                losses[i] = -surrogate.mean()
+                log_ratios.append(log_ratio.detach())
+            self.step_actors(losses)
+            sums["policy_loss"] += float(np.mean([loss.item() for loss in losses.values()]))
+            kl = torch.cat([(r.exp() - 1) - r for r in log_ratios]).mean()
             sums["approx_kl"] += kl.item()
-        require_finite_parameters(self.policy, "the actors")
-        require_finite_parameters(self.critic, "the critic")
+        self.require_finite_networks()
         return {key: total / cfg.train_repeat for key, total in sums.items()}
-
-    @staticmethod
-    def _descend(loss: Tensor, network: nn.Module, optimizer: Adam, name: str) -> None:
-        require_finite(loss, f"the {name}'s loss")
-        optimizer.zero_grad()
-        loss.backward()
-        optimizer.step()
-
-    def final_state(self) -> dict[str, Any]:
-        return {"policy": self.policy.state_dict(), "critic": self.critic.state_dict()}
-
-    def state_dict(self) -> dict[str, Any]:
-        return {
-            **self.final_state(),
-            "target": self.target.state_dict(),
-            "actor_opts": [o.state_dict() for o in self.actor_opts],
-            "critic_opt": self.critic_opt.state_dict(),
-            "episodes": self.episodes,
-            "published_steps": self.published_steps,
-        }
-
-    def load_state_dict(self, state: dict[str, Any]) -> None:
-        self.policy.load_state_dict(state["policy"])
-        self.critic.load_state_dict(state["critic"])
-        self.target.load_state_dict(state["target"])
-        for optimizer, saved in zip(self.actor_opts, state["actor_opts"], strict=True):
-            optimizer.load_state_dict(saved)
-        self.critic_opt.load_state_dict(state["critic_opt"])
-        self.episodes = int(state["episodes"])
-        self.published_steps = int(state["published_steps"])
-
-    @staticmethod
-    def actor(policy: nn.Module, config: Any, *, greedy: bool, seed: int) -> Actor:
-        return DistributionActor(policy, greedy=greedy, seed=seed)  # type: ignore[arg-type]
 
 
 def agent_centric_policy(

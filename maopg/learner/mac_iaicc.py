@@ -36,27 +36,19 @@ short included (that code drops those).
 
 from __future__ import annotations
 
-import copy
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import numpy as np
 import torch
 from torch import Tensor, nn
 
 from maopg.env.contract import EnvSpec
-from maopg.env.vector import SeededVectorEnv
-from maopg.learner.adam import Adam
 from maopg.learner.base import (
-    Actor,
-    Learner,
     LearnerSetup,
-    episode_metrics,
-    require_finite,
-    require_finite_parameters,
 )
-from maopg.learner.rounds import Episodes, collect_round, mix_agents
-from maopg.policy import DistributionActor, ObsBatch, set_precision
+from maopg.learner.rounds import Episodes, RoundsLearner
+from maopg.policy import ObsBatch
 from maopg.policy.agent_centric import LEAKY_GAIN, AgentCentricPolicy, AgentInput, linear, scan
 from maopg.policy.batch import vector_slices
 from maopg.policy.encoders import NatureCNN
@@ -192,7 +184,7 @@ def macro_steps(batch: Episodes, agent: int, gamma: float) -> MacroSteps:
     return MacroSteps(*(np.array(c) for c in columns))
 
 
-class MacIAICCLearner(Learner):
+class MacIAICCLearner(RoundsLearner):
     """Mac-IAICC and its siblings (module docstring)."""
 
     Config = MacIAICCConfig
@@ -206,42 +198,10 @@ class MacIAICCLearner(Learner):
     )
     """``entropy``: the policy's own (unmixed), summed over the choosing agents of a decision
     point; ``published_steps``: the summed length of the finished training episodes so far."""
-    policy_key = "policy"
 
     def __init__(self, policy: AgentCentricPolicy, setup: LearnerSetup) -> None:
-        super().__init__(policy, setup)
-        cfg: MacIAICCConfig = self.config
-        self.critic = HistoryCritics(setup.spec, cfg.critic, cfg.width).to(self.device)
-        set_precision(self.critic, setup.precision)
-        self.target = copy.deepcopy(self.critic)
-        self.actor_opts = [
-            Adam([*net.parameters(), *cell.parameters(), *head.parameters()], lr=cfg.lr)
-            for net, cell, head in zip(policy.inputs, policy.cells, policy.heads, strict=True)
-        ]
-        self.critic_opt = Adam(self.critic.parameters(), lr=cfg.critic_lr)
-        self.episodes = 0
-        self.published_steps = 0
-
-    def iteration(self, envs: SeededVectorEnv, samples: int) -> tuple[dict[str, Any], int]:
-        cfg: MacIAICCConfig = self.config
-        epsilon = cfg.exploration(self.episodes)
-        batch, finished, ticks = collect_round(
-            envs, self.policy, epsilon, cfg.episodes_per_update, self.setup.sample_gen, self.device
-        )
-        self.published_steps += sum(e["ticks"] for e in finished)
-        stats = self.update(batch, epsilon)
-        before, self.episodes = self.episodes, self.episodes + cfg.episodes_per_update
-        if self.episodes // cfg.target_every > before // cfg.target_every:
-            self.target.load_state_dict(self.critic.state_dict())
-        row = {
-            "option_steps": int(batch.steps.sum()),
-            **episode_metrics(finished),
-            "option_step_reward": float(batch.reward_sum[batch.steps.numpy()].mean()),
-            **stats,
-            "epsilon": epsilon,
-            "published_steps": self.published_steps,
-        }
-        return row, ticks
+        cfg: MacIAICCConfig = setup.config
+        super().__init__(policy, setup, HistoryCritics(setup.spec, cfg.critic, cfg.width))
 
     def _targets(self, batch: Episodes, agent_steps: list[MacroSteps]) -> list[Tensor]:
         """Each agent's ``y_k`` (or, ``joint``, the team's ``y`` per point) from the target."""
@@ -283,15 +243,12 @@ class MacIAICCLearner(Learner):
                 ]
             )
         value_loss = errors.square().mean()
-        require_finite(value_loss, "the critic's loss")
-        self.critic_opt.zero_grad()
-        value_loss.backward()
-        self.critic_opt.step()
+        self.step_critic(value_loss)
         with torch.no_grad():
             stepped = self.critic.values(batch, device)
-        log_probs, entropy = self._log_probs(batch, epsilon)
-        losses = []
-        for i, (s, optimizer) in enumerate(zip(agent_steps, self.actor_opts, strict=True)):
+        log_probs, entropy = self.agent_log_probs(batch, epsilon)
+        losses = {}
+        for i, s in enumerate(agent_steps):
             if not len(s.rows):
                 continue
             if joint:
@@ -300,76 +257,14 @@ class MacIAICCLearner(Learner):
                 advantage = targets[i] - stepped[s.rows, s.episodes, i]
             weight = torch.as_tensor(s.weight, dtype=torch.float32, device=device)
             chosen = log_probs[i][s.rows, s.episodes]
-            losses.append((-(weight * chosen * advantage).mean(), optimizer))
-        for loss, optimizer in losses:
-            require_finite(loss, "an actor's loss")
-            optimizer.zero_grad()
-        sum(loss for loss, _ in losses).backward()
-        for _, optimizer in losses:
-            optimizer.step()
-        require_finite_parameters(self.policy, "the actors")
-        require_finite_parameters(self.critic, "the critics")
+            losses[i] = -(weight * chosen * advantage).mean()
+        self.step_actors(losses)
+        self.require_finite_networks()
         return {
-            "policy_loss": float(np.mean([loss.item() for loss, _ in losses])),
+            "policy_loss": float(np.mean([loss.item() for loss in losses.values()])),
             "value_loss": value_loss.item(),
             "entropy": entropy[batch.steps.to(device)].mean().item(),
         }
-
-    def _log_probs(self, batch: Episodes, epsilon: float) -> tuple[list[Tensor], Tensor]:
-        """Each agent's ε-mixed log-probability ``[T, B]`` of its option at every point, and the
-        policy's own entropy ``[T, B]`` (summed over the choosing agents)."""
-        device, steps = self.device, batch.choosing.shape[:2]
-        policy: AgentCentricPolicy = self.policy  # type: ignore[assignment]
-        obs = batch.obs.to(device)
-        states = scan(
-            policy.cells,
-            [net(obs) for net in policy.inputs],
-            batch.choosing.to(device),
-            batch.starts.to(device),
-            policy.initial_state(steps[1]).to(device),
-        )
-        dist = policy.heads_at(
-            states.flatten(0, 1),
-            batch.choosing.flatten(0, 1).to(device),
-            batch.running.flatten(0, 1).to(device),
-            batch.available.flatten(0, 1).to(device),
-        )
-        entropy = dist.entropy().view(steps)
-        if epsilon:
-            dist = mix_agents(dist, epsilon)
-        chosen = batch.joint.flatten(0, 1).to(device)
-        log_probs = [
-            lp.gather(-1, chosen[:, i : i + 1]).squeeze(-1).view(steps)
-            for i, lp in enumerate(dist.agent_log_probs)
-        ]
-        return log_probs, entropy
-
-    def final_state(self) -> dict[str, Any]:
-        return {"policy": self.policy.state_dict(), "critic": self.critic.state_dict()}
-
-    def state_dict(self) -> dict[str, Any]:
-        return {
-            **self.final_state(),
-            "target": self.target.state_dict(),
-            "actor_opts": [o.state_dict() for o in self.actor_opts],
-            "critic_opt": self.critic_opt.state_dict(),
-            "episodes": self.episodes,
-            "published_steps": self.published_steps,
-        }
-
-    def load_state_dict(self, state: dict[str, Any]) -> None:
-        self.policy.load_state_dict(state["policy"])
-        self.critic.load_state_dict(state["critic"])
-        self.target.load_state_dict(state["target"])
-        for optimizer, saved in zip(self.actor_opts, state["actor_opts"], strict=True):
-            optimizer.load_state_dict(saved)
-        self.critic_opt.load_state_dict(state["critic_opt"])
-        self.episodes = int(state["episodes"])
-        self.published_steps = int(state["published_steps"])
-
-    @staticmethod
-    def actor(policy: nn.Module, config: Any, *, greedy: bool, seed: int) -> Actor:
-        return DistributionActor(policy, greedy=greedy, seed=seed)  # type: ignore[arg-type]
 
 
 def macro_actors(

@@ -8,16 +8,34 @@ from __future__ import annotations
 
 import copy
 import math
+from abc import abstractmethod
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import torch
-from torch import Tensor
+from torch import Tensor, nn
 
 from maopg.env.contract import DecisionPoint
 from maopg.env.vector import SeededVectorEnv
-from maopg.policy import ObsBatch, OptionPolicy, episode_starts, stack_conditions
+from maopg.learner.adam import Adam
+from maopg.learner.base import (
+    Actor,
+    Learner,
+    LearnerSetup,
+    episode_metrics,
+    require_finite,
+    require_finite_parameters,
+)
+from maopg.policy import (
+    DistributionActor,
+    ObsBatch,
+    OptionPolicy,
+    episode_starts,
+    set_precision,
+    stack_conditions,
+)
+from maopg.policy.agent_centric import AgentCentricPolicy, scan
 from maopg.policy.conditional import FactoredConditional, mix_uniform
 
 
@@ -151,3 +169,146 @@ def mix_agents(dist: FactoredConditional, epsilon: float) -> FactoredConditional
         for i, lp in enumerate(dist.agent_log_probs)
     ]
     return FactoredConditional(mixed, dist.choosing, dist.running)
+
+
+class RoundsLearner(Learner):
+    """What ACAC and the MacroMARL actor-critics share: recurrent actors, one per agent
+    (:class:`~maopg.policy.agent_centric.AgentCentricPolicy`), each with its Adam; a critic of the
+    subclass's with its Adam and a target copy refreshed every ``target_every`` episodes of the
+    counter; rounds of :func:`collect_round` with ε from the counter, which grows by
+    ``episodes_per_update`` a round. The config section has ``lr``, ``critic_lr``,
+    ``episodes_per_update``, ``target_every`` and ``exploration(episodes)``; a subclass gives
+    its critic and :meth:`update`."""
+
+    policy_key = "policy"
+
+    def __init__(self, policy: AgentCentricPolicy, setup: LearnerSetup, critic: nn.Module) -> None:
+        super().__init__(policy, setup)
+        cfg = self.config
+        self.critic = critic.to(self.device)
+        set_precision(self.critic, setup.precision)
+        self.target = copy.deepcopy(self.critic)
+        self.actor_opts = [
+            Adam([*net.parameters(), *cell.parameters(), *head.parameters()], lr=cfg.lr)
+            for net, cell, head in zip(policy.inputs, policy.cells, policy.heads, strict=True)
+        ]
+        self.critic_opt = Adam(self.critic.parameters(), lr=cfg.critic_lr)
+        self.episodes = 0
+        """The episode counter: ``episodes_per_update`` a round (ε and the target's copies)."""
+        self.published_steps = 0
+        """The summed length of the finished training episodes so far (the literature's
+        counter)."""
+
+    def iteration(self, envs: SeededVectorEnv, samples: int) -> tuple[dict[str, Any], int]:
+        cfg = self.config
+        epsilon = cfg.exploration(self.episodes)
+        batch, finished, ticks = self.collect(envs, epsilon)
+        self.published_steps += sum(e["ticks"] for e in finished)
+        stats = self.update(batch, epsilon)
+        before, self.episodes = self.episodes, self.episodes + cfg.episodes_per_update
+        if self.episodes // cfg.target_every > before // cfg.target_every:
+            self.target.load_state_dict(self.critic.state_dict())
+        row = {
+            "option_steps": int(batch.steps.sum()),
+            **episode_metrics(finished),
+            "option_step_reward": float(batch.reward_sum[batch.steps.numpy()].mean()),
+            **stats,
+            "epsilon": epsilon,
+            "published_steps": self.published_steps,
+        }
+        return row, ticks
+
+    @torch.no_grad()
+    def collect(
+        self, envs: SeededVectorEnv, epsilon: float
+    ) -> tuple[Episodes, list[dict[str, Any]], int]:
+        """One round (:func:`collect_round`)."""
+        return collect_round(
+            envs,
+            self.policy,  # type: ignore[arg-type]
+            epsilon,
+            self.config.episodes_per_update,
+            self.setup.sample_gen,
+            self.device,
+        )
+
+    @abstractmethod
+    def update(self, batch: Episodes, epsilon: float) -> dict[str, float]:
+        """Learn from one round's batch, collected at ``epsilon``; the loss statistics."""
+
+    def agent_log_probs(self, batch: Episodes, epsilon: float) -> tuple[list[Tensor], Tensor]:
+        """Each agent's ε-mixed log-probability ``[T, B]`` of its option at every point, and the
+        policy's own entropy ``[T, B]`` there (summed over the choosing agents)."""
+        device, steps = self.device, batch.choosing.shape[:2]
+        policy: AgentCentricPolicy = self.policy  # type: ignore[assignment]
+        obs = batch.obs.to(device)
+        states = scan(
+            policy.cells,
+            [net(obs) for net in policy.inputs],
+            batch.choosing.to(device),
+            batch.starts.to(device),
+            policy.initial_state(steps[1]).to(device),
+        )
+        dist = policy.heads_at(
+            states.flatten(0, 1),
+            batch.choosing.flatten(0, 1).to(device),
+            batch.running.flatten(0, 1).to(device),
+            batch.available.flatten(0, 1).to(device),
+        )
+        entropy = dist.entropy().view(steps)
+        if epsilon:
+            dist = mix_agents(dist, epsilon)
+        chosen = batch.joint.flatten(0, 1).to(device)
+        log_probs = [
+            lp.gather(-1, chosen[:, i : i + 1]).squeeze(-1).view(steps)
+            for i, lp in enumerate(dist.agent_log_probs)
+        ]
+        return log_probs, entropy
+
+    def step_critic(self, loss: Tensor) -> None:
+        """One Adam step of the critic on ``loss`` (no gradient clipping, as published)."""
+        require_finite(loss, "the critic's loss")
+        self.critic_opt.zero_grad()
+        loss.backward()
+        self.critic_opt.step()
+
+    def step_actors(self, losses: dict[int, Tensor]) -> None:
+        """One Adam step of each agent's actor on its own loss (agents absent: no step)."""
+        for loss in losses.values():
+            require_finite(loss, "an actor's loss")
+        for agent in losses:
+            self.actor_opts[agent].zero_grad()
+        sum(losses.values()).backward()  # type: ignore[union-attr]
+        for agent in losses:
+            self.actor_opts[agent].step()
+
+    def require_finite_networks(self) -> None:
+        require_finite_parameters(self.policy, "the actors")
+        require_finite_parameters(self.critic, "the critic")
+
+    def final_state(self) -> dict[str, Any]:
+        return {"policy": self.policy.state_dict(), "critic": self.critic.state_dict()}
+
+    def state_dict(self) -> dict[str, Any]:
+        return {
+            **self.final_state(),
+            "target": self.target.state_dict(),
+            "actor_opts": [o.state_dict() for o in self.actor_opts],
+            "critic_opt": self.critic_opt.state_dict(),
+            "episodes": self.episodes,
+            "published_steps": self.published_steps,
+        }
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        self.policy.load_state_dict(state["policy"])
+        self.critic.load_state_dict(state["critic"])
+        self.target.load_state_dict(state["target"])
+        for optimizer, saved in zip(self.actor_opts, state["actor_opts"], strict=True):
+            optimizer.load_state_dict(saved)
+        self.critic_opt.load_state_dict(state["critic_opt"])
+        self.episodes = int(state["episodes"])
+        self.published_steps = int(state["published_steps"])
+
+    @staticmethod
+    def actor(policy: nn.Module, config: Any, *, greedy: bool, seed: int) -> Actor:
+        return DistributionActor(policy, greedy=greedy, seed=seed)  # type: ignore[arg-type]

@@ -164,10 +164,10 @@ def test_at_full_exploration_the_ratio_is_one_whatever_the_actors_say(envs):
     uniform's whatever the weights, so the surrogate's ratio is exactly 1."""
     learner = _learner(envs, episodes_per_update=2)
     batch, _, _ = learner.collect(envs, 1.0)
-    old, _ = learner._agent_log_probs(batch, 1.0)
+    old, _ = learner.agent_log_probs(batch, 1.0)
     for parameter in learner.policy.parameters():
         parameter.data.add_(torch.randn_like(parameter))
-    new, _ = learner._agent_log_probs(batch, 1.0)
+    new, _ = learner.agent_log_probs(batch, 1.0)
     deciding = batch.choosing & batch.steps.unsqueeze(-1)
     for i in range(2):
         assert torch.allclose(new[i][deciding[..., i]], old[i][deciding[..., i]])
