@@ -49,7 +49,7 @@ from maopg.learner.base import (
 )
 from maopg.learner.rounds import Episodes, RoundsLearner
 from maopg.policy import ObsBatch
-from maopg.policy.agent_centric import LEAKY_GAIN, AgentCentricPolicy, AgentInput, linear, scan
+from maopg.policy.agent_centric import AgentCentricPolicy, AgentInput, leaky_mlp, linear, scan
 from maopg.policy.batch import vector_slices
 from maopg.policy.encoders import NatureCNN
 from maopg.policy.joint_size import BuildTarget
@@ -94,12 +94,7 @@ class JointInput(nn.Module):
         )
         in_dim = vector_slices(spec)[-1].stop
         in_dim += spec.num_agents * cnn_features if self.cnn is not None else 0
-        self.mlp = nn.Sequential(
-            linear(in_dim, width, LEAKY_GAIN),
-            nn.LeakyReLU(),
-            linear(width, width, LEAKY_GAIN),
-            nn.LeakyReLU(),
-        )
+        self.mlp = leaky_mlp(in_dim, width)
 
     def forward(self, obs: ObsBatch) -> Tensor:
         parts = [obs.vectors]

@@ -56,6 +56,17 @@ def linear(in_dim: int, out_dim: int, gain: float) -> nn.Linear:
     return layer
 
 
+def leaky_mlp(in_dim: int, width: int) -> nn.Sequential:
+    """Linear → leaky ReLU → Linear → leaky ReLU, ``width`` wide: the input layers of the ACAC
+    and MacroMARL networks."""
+    return nn.Sequential(
+        linear(in_dim, width, LEAKY_GAIN),
+        nn.LeakyReLU(),
+        linear(width, width, LEAKY_GAIN),
+        nn.LeakyReLU(),
+    )
+
+
 class AgentInput(nn.Module):
     """Agent ``agent``'s own observation and (``embed_time``) its event time → ``[B, width]``
     features."""
@@ -72,12 +83,7 @@ class AgentInput(nn.Module):
         )
         in_dim = self.columns.stop - self.columns.start + (2 if embed_time else 0)
         in_dim += cnn_features if self.cnn is not None else 0
-        self.mlp = nn.Sequential(
-            linear(in_dim, width, LEAKY_GAIN),
-            nn.LeakyReLU(),
-            linear(width, width, LEAKY_GAIN),
-            nn.LeakyReLU(),
-        )
+        self.mlp = leaky_mlp(in_dim, width)
 
     def forward(self, obs: ObsBatch) -> Tensor:
         parts = [obs.vectors[:, self.columns]]
