@@ -173,20 +173,21 @@ the ``memory`` study found they must be."""
 BOX_PUSHING_SIZES = (6, 8, 10)
 """The grid sizes of the published curves (``bp6``, ``bp8``, ``bp10``)."""
 ACAC_PUBLISHED = frozen(
-    {"acac": frozen({"num_envs": 32, "gamma": 0.98, "total_samples": 1_500_000})}
+    {"acac": frozen({"num_envs": 32, "gamma": 0.98, "total_samples": 2_500_000})}
 )
 """ACAC as its published runs (box-pushing reference §10): 32 environments, γ = 0.98. Its
 rounds throw away every unfinished episode, and its published curves count only finished
-training episodes' ticks (``published_steps``): 500K of those took about 1.5M of maopg's
-samples in a 6x6 pilot (139K published at 466K samples, ε still 0.63), so its runs go on to
-1.5M samples and are read on either counter."""
+training episodes' ticks (``published_steps``): a 6x6 pilot (seed 0) had 102K of those at 489K
+of maopg's samples, about one in five while ε is still high (0.67 there), so its runs go on to
+2.5M samples for the published 500K and are read on either counter."""
 
 
 def _macromarl(size: int) -> Settings:
     """Mac-IAICC as MacroMARL's Box Pushing scripts run it at ``size``: 32 environments and 32
     episodes a round, γ = 0.98, the target critics copied every 128 episodes on 6x6 and 64 on
-    the larger grids, ε over 4,000 episodes (6,000 on 10x10), and the budget of ACAC's runs
-    (:data:`ACAC_PUBLISHED`: its rounds discard unfinished episodes the same way)."""
+    the larger grids, ε over 4,000 episodes (6,000 on 10x10); 1.5M samples, its rounds
+    discarding unfinished episodes as ACAC's do (a 6x6 pilot had 652K published steps at 966K
+    samples, its ε decaying much sooner than ACAC's)."""
     return frozen(
         {
             "mac-iaicc": frozen(
@@ -215,11 +216,12 @@ def _box_pushing_grid(size: int) -> Study:
     Cost, measured on this machine with 20K-sample runs on 6x6 (CPU time per 500K samples,
     start-up left out): async 200 s, partial 235, async-rnn 415, mac-dqn 460 (10x10 is cheaper:
     its longer macro-actions choose less often; async 130 s, mac-dqn 400), so at most 1.8
-    CPU-hours a size, 5.5 for the three. ACAC's 1.5M samples (:data:`ACAC_PUBLISHED`) took 15
-    minutes a run in the 6x6 pilot (1,640 samples/s, its evaluations included): 1.3 CPU-hours
-    a size more. An evaluation is a small share of that: 10 episodes of
-    at most 100 ticks on one environment, cheaper per tick than training (20K samples took as
-    long with evaluation as without, within the noise of a shared machine)."""
+    CPU-hours a size, 5.5 for the three. ACAC's 2.5M samples (:data:`ACAC_PUBLISHED`) take
+    about 22 minutes a run (a 6x6 pilot ran 1,860 samples/s, its evaluations included) and
+    Mac-IAICC's 1.5M about 10 (2,470 samples/s): 2.7 CPU-hours a size more. An evaluation is a
+    small share of that: 10 episodes of at most 100 ticks on one environment, cheaper per tick
+    than training (20K samples took as long with evaluation as without, within the noise of a
+    shared machine)."""
     return Study(
         f"box-pushing-{size}",
         f"async, partial, async-rnn, mac-dqn, acac and mac-iaicc on the {size}x{size} Box "
