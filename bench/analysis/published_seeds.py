@@ -4,7 +4,9 @@ logged evaluations (``docs/results/published_box_pushing.md`` holds what this pr
 Run: ``.venv/bin/python bench/analysis/published_seeds.py GIT_DIR`` with ``GIT_DIR`` a mirror of
 ``LGAI-Research/acac`` (it only reads, through ``git show`` at :data:`COMMIT`). A seed's value at
 T is the mean of its last 5 logged ``Eval/Return`` values with ``Timesteps`` ≤ T (fewer where
-fewer lie below T, marked ``(n=…)``); "big" = its value at 500K is ≥ 200.
+fewer lie below T, marked ``(n=…)``); "big" = its value at 500K is ≥ 200. Last, it checks the
+values the studies compare with (``maopg.experiment.studies.published.PUBLISHED_RUNS``, 3
+decimals) against the logs.
 """
 
 from __future__ import annotations
@@ -14,6 +16,8 @@ import csv
 import io
 import statistics
 import subprocess
+
+from maopg.experiment.studies.published import PUBLISHED_RUNS
 
 COMMIT = "26b94d99b459ebc61ce9c7fe0b09408dd3fe876b"
 STEPS = (50_000, 100_000, 200_000, 300_000, 500_000)
@@ -44,6 +48,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("git_dir", help="a mirror of LGAI-Research/acac")
     args = parser.parse_args()
+    differ = []
     for env in ENVS:
         print(
             f"\n### {env}\n| method | seed | {' | '.join(f'{s // 1000}K' for s in STEPS)} | big |"
@@ -57,6 +62,9 @@ def main() -> None:
                 for s in STEPS:
                     value, count = value_at(rows, s)
                     per_step[s].append(value)
+                    stored = PUBLISHED_RUNS[env][method][seed][STEPS.index(s)]
+                    if abs(stored - value) > 0.0005 + 1e-9:
+                        differ.append(f"{env} {method} seed {seed} at {s}: {stored} ≠ {value}")
                     cells.append(f"{value:.1f}" + ("" if count == 5 else f" (n={count})"))
                 big = "Y" if per_step[STEPS[-1]][-1] >= 200 else "N"
                 print(f"| {method} | {seed} | {' | '.join(cells)} | {big} |")
@@ -64,6 +72,10 @@ def main() -> None:
                 f"{statistics.mean(v):.1f} ± {statistics.stdev(v):.1f}" for v in per_step.values()
             )
             print(f"| {method} | mean ± SD | {summary} | |")
+    print(
+        "\nPUBLISHED_RUNS (maopg.experiment.studies.published) against these logs: "
+        + ("; ".join(differ) if differ else "every value matches to 3 decimals")
+    )
 
 
 if __name__ == "__main__":

@@ -25,6 +25,7 @@ final value (:func:`outcome`) and lists every seed's value and big-box rate.
 from __future__ import annotations
 
 import math
+import statistics
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 
@@ -33,6 +34,7 @@ import numpy as np
 from maopg.experiment.run.directory import EVAL_COLUMNS
 from maopg.experiment.studies.plots import METHOD_COLOURS, RECURRENT_SUFFIX
 from maopg.experiment.studies.runs import RunData, Summary, base_method, mean_curve
+from maopg.experiment.studies.stats import RESAMPLES, bootstrap_interval, fisher_exact
 from maopg.experiment.studies.tables import format_summary, markdown_table, selected_groups
 
 EVAL_RETURN, _, EVAL_SUCCESS, _ = EVAL_COLUMNS
@@ -49,31 +51,127 @@ PUBLISHED_METHODS = {
 """The published methods, by their log names, as their papers name them."""
 PUBLISHED_SEEDS = 5
 """Seeds of every published row (0-4)."""
-PUBLISHED: Mapping[str, Mapping[str, tuple[tuple[float, float], ...]]] = {
+PUBLISHED_RUNS: Mapping[str, Mapping[str, tuple[tuple[float, ...], ...]]] = {
     "bp6": {
-        "acac": ((34.4, 7.6), (299.3, 0.1), (299.3, 0.1), (299.3, 0.1), (299.3, 0.1)),
-        "mac_iaicc": ((21.3, 4.1), (19.1, 2.9), (102.4, 95.3), (290.5, 4.1), (286.6, 9.2)),
-        "mac_niacc": ((18.4, 2.0), (19.6, 3.1), (161.7, 129.0), (240.0, 116.2), (243.4, 117.5)),
-        "mappo": ((-36.6, 6.6), (-6.8, 5.6), (-8.2, 6.8), (-4.0, 5.3), (-1.5, 6.8)),
+        "acac": (
+            (38.85, 299.4, 299.4, 299.4, 299.4),
+            (21.108, 299.3, 299.3, 299.3, 299.3),
+            (38.6, 299.3, 299.3, 299.3, 299.3),
+            (35.132, 299.3, 299.3, 299.3, 299.3),
+            (38.072, 299.4, 299.4, 299.4, 299.4),
+        ),
+        "mac_iaicc": (
+            (19.751, 17.138, 31.954, 289.362, 291.138),
+            (22.891, 19.417, 221.715, 296.563, 288.118),
+            (18.025, 23.724, 189.229, 292.205, 291.007),
+            (18.16, 18.923, 20.632, 288.85, 292.47),
+            (27.802, 16.32, 48.296, 285.719, 270.36),
+        ),
+        "mac_niacc": (
+            (18.402, 20.57, 21.74, 32.349, 33.185),
+            (17.476, 18.889, 234.128, 292.716, 293.722),
+            (16.485, 24.128, 249.275, 298.136, 297.301),
+            (17.688, 18.892, 21.575, 282.524, 296.931),
+            (21.778, 15.744, 281.883, 294.041, 295.665),
+        ),
+        "mappo": (
+            (-42.66, -11.266, -8.866, -1.738, 0.854),
+            (-28.082, -5.988, -19.554, -0.178, -2.158),
+            (-40.96, -13.618, -2.294, 0.912, -10.192),
+            (-30.82, -2.856, -6.162, -7.496, 8.304),
+            (-40.476, -0.406, -4.364, -11.474, -4.512),
+        ),
     },
     "bp8": {
-        "acac": ((28.8, 7.7), (189.9, 145.5), (247.2, 116.2), (247.2, 116.2), (247.2, 116.2)),
-        "mac_iaicc": ((19.6, 3.4), (22.5, 6.2), (19.3, 0.7), (64.3, 94.5), (127.0, 134.1)),
-        "mac_niacc": ((17.5, 4.0), (18.6, 1.0), (21.0, 3.1), (51.9, 73.0), (71.0, 110.3)),
-        "mappo": ((-43.9, 7.7), (-11.8, 0.6), (-10.3, 0.4), (-10.0, 0.0), (-10.1, 0.2)),
+        "acac": (
+            (23.504, 295.39, 299.2, 299.2, 299.2),
+            (24.516, 297.201, 299.2, 299.2, 299.2),
+            (39.15, 39.275, 39.4, 39.4, 39.4),
+            (22.061, 295.547, 299.1, 299.1, 299.1),
+            (34.837, 21.9, 299.1, 299.1, 299.1),
+        ),
+        "mac_iaicc": (
+            (16.485, 26.564, 18.156, 28.31, 266.868),
+            (18.161, 19.27, 19.68, 20.286, 36.65),
+            (23.541, 17.379, 19.589, 233.308, 280.372),
+            (22.92, 17.917, 19.688, 18.792, 18.864),
+            (16.708, 31.374, 19.562, 21.027, 32.179),
+        ),
+        "mac_niacc": (
+            (19.651, 17.116, 26.57, 182.466, 268.154),
+            (12.747, 18.244, 19.062, 19.518, 29.167),
+            (22.707, 18.964, 19.796, 18.747, 19.4),
+            (18.056, 19.944, 19.355, 18.762, 18.037),
+            (14.225, 18.732, 20.131, 20.234, 20.197),
+        ),
+        "mappo": (
+            (-37.627, -12.6, -11.0, -10.0, -10.0),
+            (-43.207, -11.4, -10.2, -10.0, -10.0),
+            (-38.163, -11.0, -10.0, -10.0, -10.0),
+            (-43.723, -11.6, -10.0, -10.0, -10.0),
+            (-56.75, -12.2, -10.2, -10.0, -10.4),
+        ),
     },
     "bp10": {
-        "acac": ((25.8, 5.4), (37.6, 0.9), (246.9, 116.1), (246.9, 116.1), (246.9, 116.1)),
-        "mac_iaicc": ((20.5, 2.5), (19.0, 5.6), (19.2, 0.8), (19.5, 0.8), (70.3, 106.3)),
-        "mac_niacc": ((20.6, 3.3), (20.1, 3.1), (18.3, 1.3), (19.0, 0.5), (22.2, 5.1)),
-        "mappo": ((-44.8, 8.1), (-12.2, 1.1), (-10.2, 0.1), (-10.1, 0.2), (-10.1, 0.2)),
+        "acac": (
+            (25.483, 37.513, 298.8, 298.8, 298.8),
+            (19.917, 37.575, 298.9, 298.9, 298.9),
+            (34.689, 39.075, 39.2, 39.2, 39.2),
+            (24.38, 37.575, 298.8, 298.8, 298.8),
+            (24.777, 36.513, 298.9, 298.9, 298.9),
+        ),
+        "mac_iaicc": (
+            (22.093, 14.973, 19.323, 18.565, 19.074),
+            (21.47, 13.251, 20.289, 19.926, 32.936),
+            (21.519, 21.683, 18.126, 20.155, 260.127),
+            (16.027, 18.036, 18.718, 18.593, 18.841),
+            (21.454, 27.294, 19.668, 20.092, 20.279),
+        ),
+        "mac_niacc": (
+            (21.972, 16.966, 18.718, 19.56, 30.899),
+            (23.816, 24.327, 18.948, 19.479, 22.602),
+            (22.875, 18.845, 19.383, 18.326, 18.409),
+            (16.256, 18.092, 18.42, 18.583, 18.675),
+            (18.143, 22.081, 16.071, 19.081, 20.596),
+        ),
+        "mappo": (
+            (-36.5, -12.4, -10.4, -10.0, -10.0),
+            (-47.5, -11.0, -10.2, -10.4, -10.0),
+            (-43.217, -11.2, -10.2, -10.0, -10.0),
+            (-39.5, -13.4, -10.2, -10.0, -10.0),
+            (-57.25, -13.2, -10.0, -10.0, -10.4),
+        ),
     },
 }
-"""Published facts, not maopg's results: each method's value at each of
-:data:`PUBLISHED_SAMPLES` as ``(mean, sample SD)`` over seeds 0-4, on the grid of each size
-(``bp6``: 6x6). Source: the box-pushing reference (``shared/reference/box_pushing_reference.md``,
-§9 "Published curves"), computed there from the ACAC code release's logs (LGAI-Research/acac,
-``icml25_result/log``) by the rule of this module. Those logs count ``Timesteps`` as §8 says."""
+"""Published facts, not maopg's results: each published seed's (0-4, in order) value at each of
+:data:`PUBLISHED_SAMPLES` on the grid of each size (``bp6``: 6x6), to 3 decimals, from the ACAC
+code release's logs (LGAI-Research/acac, ``icml25_result/log``, ``Timesteps`` counted as the
+box-pushing reference's §8 says) by the rule of this module; ``bench/analysis/published_seeds.py``
+prints them from a mirror of that repository and checks these against it
+(``docs/results/published_box_pushing.md``). mappo logs about every 10K steps, so its value at
+50K on bp6 seed 2 averages the 4 evaluations logged by then."""
+PUBLISHED: Mapping[str, Mapping[str, tuple[tuple[float, float], ...]]] = {
+    size: {
+        method: tuple(
+            (statistics.fmean(at), statistics.stdev(at)) for at in zip(*seeds, strict=True)
+        )
+        for method, seeds in methods.items()
+    }
+    for size, methods in PUBLISHED_RUNS.items()
+}
+"""Each published method's value at each of :data:`PUBLISHED_SAMPLES` as ``(mean, sample
+SD)`` over its seeds: the box-pushing reference's §9 table, to its rounding."""
+SAMPLES = "samples"
+"""maopg's counter: every simulated tick of every environment."""
+PUBLISHED_COUNTER = "published_steps"
+"""The metrics column of the methods whose rounds count steps as the published logs do (only
+the ticks of finished training episodes: ``acac`` and MacroMARL's methods)."""
+VALIDATED = {"acac": "acac", "mac-iaicc": "mac_iaicc"}
+"""maopg's methods validated against a published one (its log name in :data:`PUBLISHED_RUNS`)."""
+VALIDATION_SAMPLES = (100_000, 200_000, 500_000)
+"""The T at which a validated method's 5-seed mean is set against the published seeds."""
+MATCH_P = 0.05
+"""A big-box count matches the published one while Fisher's exact test gives p above it."""
 GRID_TASK = "box_pushing_grid"
 """The task the published curves were measured on (the others are read against them)."""
 
@@ -95,14 +193,21 @@ OUTCOMES = ("big box", "big box at times", "small boxes only", "nothing")
 """What a seed learnt, best first (:func:`outcome`)."""
 
 
-def value_at(run: RunData, samples: float, metric: str = EVAL_RETURN) -> float:
+def value_at(
+    run: RunData, samples: float, metric: str = EVAL_RETURN, counter: str = SAMPLES
+) -> float:
     """The run's value at ``samples`` (reference §9): the mean of its last :data:`LAST`
-    evaluations (``metric``) logged at ``samples`` or before. ``nan`` where the run has not
-    trained that far, or logged no evaluation by then."""
-    if metric not in run.metrics or not run.samples.size or run.samples[-1] < samples:
+    evaluations (``metric``) logged at ``samples`` or before on ``counter`` (maopg's
+    ``samples``, or :data:`PUBLISHED_COUNTER`). ``nan`` where the run has not trained that far,
+    or logged no evaluation by then."""
+    if metric not in run.metrics or (counter != SAMPLES and counter not in run.metrics):
         return math.nan
-    at, values = run.curve(metric)
-    last = values[at <= samples][-LAST:]
+    steps = run.samples if counter == SAMPLES else run.column(counter)
+    if not steps.size or steps[-1] < samples:
+        return math.nan
+    values = run.column(metric)
+    seen = ~np.isnan(values)
+    last = values[seen][steps[seen] <= samples][-LAST:]
     return float(last.mean()) if last.size else math.nan
 
 
@@ -138,20 +243,29 @@ def _thousands(samples: int) -> str:
     return f"{samples // 1000}K"
 
 
+def _values(group: Sequence[RunData], samples: Sequence[int], counter: str) -> list[str]:
+    """The group's value at each T of ``samples`` on ``counter``: mean ± sample SD over seeds,
+    ``(n)`` after it where only n of the seeds trained that far."""
+    cells = []
+    for t in samples:
+        summary = over_seeds(value_at(r, t, counter=counter) for r in group)
+        partial = f" ({summary.count})" if 0 < summary.count < len(group) else ""
+        cells.append(format_summary(summary) + partial)
+    return cells
+
+
 def value_table(
     runs: Iterable[RunData], published: str, samples: Sequence[int] = PUBLISHED_SAMPLES
 ) -> str:
-    """Per task × method: the value at each T of ``samples`` (mean ± sample SD over seeds;
-    ``(n)`` after it where only n of the seeds trained that far), then the published rows of
-    ``published`` (a key of :data:`PUBLISHED`)."""
+    """Per task × method: the value at each T of ``samples`` (:func:`_values`), again on the
+    published counter for the methods that log it, then the published rows of ``published`` (a
+    key of :data:`PUBLISHED`)."""
     rows = []
     for (task, label), group in selected_groups(runs, None):
-        cells = []
-        for t in samples:
-            summary = over_seeds(value_at(r, t) for r in group)
-            partial = f" ({summary.count})" if 0 < summary.count < len(group) else ""
-            cells.append(format_summary(summary) + partial)
-        rows.append([task, label, str(len(group)), *cells])
+        rows.append([task, label, str(len(group)), *_values(group, samples, SAMPLES)])
+        if all(PUBLISHED_COUNTER in r.metrics for r in group):
+            cells = _values(group, samples, PUBLISHED_COUNTER)
+            rows.append([task, f"{label}, published counter", str(len(group)), *cells])
     columns = [PUBLISHED_SAMPLES.index(t) if t in PUBLISHED_SAMPLES else None for t in samples]
     for method, values in PUBLISHED[published].items():
         cells = [
@@ -184,6 +298,67 @@ def outcome_table(runs: Iterable[RunData]) -> str:
         rows.append([task, label, f"{len(group)}{note}", *counts, seeds])
     header = ["task", "method", "seeds", *OUTCOMES, "each seed: final value (big-box rate)"]
     return markdown_table(header, rows)
+
+
+def validation_table(runs: Iterable[RunData], published: str) -> str:
+    """Each validated method (:data:`VALIDATED`) on the grid against its published seeds of
+    ``published``: at each T of :data:`VALIDATION_SAMPLES`, on the published counter, maopg's
+    mean over its seeds beside the published seeds' mean and the bootstrap 95 % interval of
+    that mean (:func:`~maopg.experiment.studies.stats.bootstrap_interval`; it matches when
+    maopg's mean lies inside); then how many seeds deliver the big box at the last T (value
+    ≥ :data:`BIG_BOX`) on either side, and Fisher's exact test of the two counts (it matches
+    while p > :data:`MATCH_P`). Empty where no validated method has runs."""
+    rows = []
+    last = VALIDATION_SAMPLES[-1]
+    for (task, label), group in selected_groups(runs, None):
+        name = VALIDATED.get(base_method(label))
+        if task != GRID_TASK or name is None:
+            continue
+        seeds = PUBLISHED_RUNS[published][name]
+        for t in VALIDATION_SAMPLES:
+            theirs = [values[PUBLISHED_SAMPLES.index(t)] for values in seeds]
+            ours = over_seeds(value_at(r, t, counter=PUBLISHED_COUNTER) for r in group)
+            low, high = bootstrap_interval(theirs)
+            verdict = "—" if ours.count < len(group) else _yes(low <= ours.mean <= high)
+            rows.append(
+                [
+                    label,
+                    _thousands(t),
+                    f"{ours.mean:.2f} ({ours.count} of {len(group)})" if ours.count else "—",
+                    f"{statistics.fmean(theirs):.2f}",
+                    f"[{low:.2f}, {high:.2f}]",
+                    verdict,
+                ]
+            )
+        finals = [value_at(r, last, counter=PUBLISHED_COUNTER) for r in group]
+        ours_big = sum(v >= BIG_BOX for v in finals)
+        theirs_big = sum(values[PUBLISHED_SAMPLES.index(last)] >= BIG_BOX for values in seeds)
+        evaluated = sum(not math.isnan(v) for v in finals)
+        p = fisher_exact(ours_big, evaluated, theirs_big, len(seeds)) if evaluated else math.nan
+        verdict = "—" if evaluated < len(group) else _yes(p > MATCH_P)
+        rows.append(
+            [
+                label,
+                f"big box at {_thousands(last)}",
+                f"{ours_big} of {evaluated}",
+                f"{theirs_big} of {len(seeds)}",
+                f"Fisher exact p = {p:.2f}" if evaluated else "—",
+                verdict,
+            ]
+        )
+    header = [
+        "method",
+        "T (published counter)",
+        "maopg",
+        f"published {published}",
+        "published: bootstrap 95 % of the mean",
+        "matches",
+    ]
+    return markdown_table(header, rows) if rows else ""
+
+
+def _yes(holds: bool) -> str:
+    return "yes" if holds else "no"
 
 
 def _evaluation_settings(runs: Sequence[RunData]) -> str:
@@ -231,13 +406,27 @@ def published_sections(runs: Sequence[RunData], published: str) -> list[tuple[st
         "nearly every episode; a random team scores 3-5); nothing: below. The big-box rate is "
         f"the share of the same {LAST} evaluations' episodes that delivered the big box.\n\n"
     )
-    return [
+    sections = [
         (
             f"Evaluation during training beside the published {published} curves",
             intro + "\n" + value_table(runs, published),
         ),
         ("What each seed learns", outcomes + outcome_table(runs)),
     ]
+    validation = validation_table(runs, published)
+    if validation:
+        how = (
+            "The methods that reproduce a published one, read on the published counter "
+            f"(`{PUBLISHED_COUNTER}`: the ticks of finished training episodes, as the published "
+            "logs count them). A value at T matches when maopg's mean over its seeds lies in "
+            "the bootstrap 95 % interval of the mean of the published seeds' values "
+            f"({RESAMPLES:,} resamples); the big-box counts match while Fisher's exact test "
+            f"gives p > {MATCH_P:g}. `—`: not every seed has trained that far yet. Mac-IAICC's "
+            "published settings and step counter are not published with its logs: its rows "
+            "are its MacroMARL settings, read on the same counter as ACAC's.\n\n"
+        )
+        sections.append((f"Validation against the published {published} runs", how + validation))
+    return sections
 
 
 def plot_published(runs: Sequence[RunData], out_stem: str | Path, published: str) -> list[Path]:
