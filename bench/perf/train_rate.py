@@ -30,9 +30,11 @@ CASES = {
 Filling's 2,000-tick ones."""
 
 
-def train_rate(task: str, args: list[str], run_dir: Path) -> tuple[float, int]:
+def train_rate(
+    task: str, args: list[str], run_dir: Path, method: str = "async"
+) -> tuple[float, int]:
     """(samples/s after the first iteration, iterations) of one run of the command line."""
-    argv = ["train", "--task", task, "--method", "async", *args, "--run-dir", str(run_dir)]
+    argv = ["train", "--task", task, "--method", method, *args, "--run-dir", str(run_dir)]
     sys.argv = [*argv, "video=false", "progress=false"]
     try:  # the command's own output (its run directory) would split the table: to stderr
         with contextlib.redirect_stdout(sys.stderr):

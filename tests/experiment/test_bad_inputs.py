@@ -127,6 +127,10 @@ BAD_EVAL = [
         r"tool_delivery/async: seed=3 contradicts the grid's cell \(seed \d+\)",
     ),
     (["reproduce", "--dry-run", "--config", "missing.yaml"], r"config file .*missing\.yaml"),
+    (
+        ["reproduce", "--study", "leaderboard", "--dry-run", "--seeds", "1"],
+        r"--runs does not apply to --study leaderboard .*allowed: --results, --methods",
+    ),
 ]
 
 

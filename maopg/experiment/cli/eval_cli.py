@@ -23,7 +23,7 @@ from __future__ import annotations
 import argparse
 import re
 import sys
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -291,7 +291,7 @@ def cmd_table(args: argparse.Namespace) -> int:
 
 
 def cmd_reproduce(args: argparse.Namespace) -> int:
-    from maopg.experiment.studies import get_study, study_names
+    from maopg.experiment.studies import LEADERBOARD, LEADERBOARD_ABOUT, get_study, study_names
     from maopg.experiment.studies.results import reproduce
 
     _retired_set(args, "")
@@ -300,7 +300,10 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
             study = get_study(name)
             tasks = ", ".join(f"{t.task} ({len(t.seeds)} seeds)" for t in study.tasks)
             print(f"{name}: {study.about}\n  tasks: {tasks}\n  methods: {' '.join(study.methods)}")
+        print(f"{LEADERBOARD}: {LEADERBOARD_ABOUT}")
         return 0
+    if args.study == LEADERBOARD:
+        return _reproduce_leaderboard(args)
     study = get_study(args.study)
     outcomes, written = reproduce(
         args.runs or study.runs_dir(),
@@ -320,6 +323,44 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
         jobs=args.jobs,
         dry_run=args.dry_run,
     )
+    return _report(outcomes, written)
+
+
+def _reproduce_leaderboard(args: argparse.Namespace) -> int:
+    """``reproduce --study leaderboard``: its boards keep their studies' tasks, seeds and
+    settings, so the options that change those are refused."""
+    from maopg.experiment.studies import LEADERBOARD
+    from maopg.experiment.studies.leaderboard import reproduce_leaderboard
+
+    fixed = {
+        "--runs": args.runs,
+        "--tasks": args.tasks,
+        "--seeds": args.seeds,
+        "--config": args.config,
+        "--threshold": args.threshold,
+        "key=value": args.settings,
+    }
+    given = [name for name, value in fixed.items() if value]
+    if given:
+        raise ValueError(
+            f"{given[0]} does not apply to --study leaderboard (its boards keep their studies' "
+            "runs, tasks, seeds and settings); allowed: --results, --methods, --jobs, "
+            "--in-process, --dry-run, --no-train, --reference-episodes"
+        )
+    outcomes, written = reproduce_leaderboard(
+        args.results or Path("results", LEADERBOARD),
+        methods=args.methods,
+        train=not args.no_train,
+        reference_episodes=args.reference_episodes,
+        in_process=args.in_process,
+        jobs=args.jobs,
+        dry_run=args.dry_run,
+    )
+    return _report(outcomes, written)
+
+
+def _report(outcomes: Mapping[object, str], written: Sequence[Path]) -> int:
+    """Print the files written and the grid's outcomes; 1 if a cell failed."""
     for path in written:
         print(f"wrote {path}")
     failed = [c for c, o in outcomes.items() if o.startswith("failed")]
@@ -333,7 +374,7 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
 
 def build_parser() -> argparse.ArgumentParser:
     from maopg.experiment.run.methods import method_names
-    from maopg.experiment.studies import PAPER, get_study, study_names
+    from maopg.experiment.studies import LEADERBOARD, PAPER, get_study, study_names
 
     paper = get_study(PAPER)
 
@@ -401,7 +442,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--study",
         default=PAPER,
-        choices=study_names(),
+        choices=[*study_names(), LEADERBOARD],
         help="which grid (default %(default)s: the paper's comparison; see --list-studies)",
     )
     p.add_argument("--list-studies", action="store_true", help="describe every study and exit")

@@ -5,6 +5,10 @@
 - :mod:`.builtin` — the committed studies (the paper's comparison and the questions since);
 - :mod:`.grid` — bringing a study's runs to completion, resumably (:func:`run_grid`);
 - :mod:`.results` — its figures, tables and evaluation (:func:`reproduce`);
+- :mod:`.leaderboard` — every method on every task that supports it, on one scale;
+- :mod:`.published` — Box Pushing's evaluations beside the published curves, and the
+  validation of the methods that reproduce a published one;
+- :mod:`.stats` — bootstrap intervals, Fisher's exact test, interquartile means, profiles;
 - :mod:`.runs` — reading logged run directories (curves, finals, groups of seeds);
 - :mod:`.tables`, :mod:`.plots` — result tables and learning curves from them;
 - :mod:`.cache` — evaluations cached on what their numbers depend on.
@@ -13,6 +17,8 @@
 from __future__ import annotations
 
 from maopg.experiment.studies.registry import (
+    LEADERBOARD,
+    LEADERBOARD_ABOUT,
     PAPER,
     Study,
     StudyTask,
@@ -27,6 +33,8 @@ from maopg.experiment.studies.registry import (
 from maopg.experiment.studies import builtin  # noqa: F401  isort: skip
 
 __all__ = [
+    "LEADERBOARD",
+    "LEADERBOARD_ABOUT",
     "PAPER",
     "Study",
     "StudyTask",

@@ -172,17 +172,18 @@ macro-action-observation histories of the literature's methods) and are layer-no
 the ``memory`` study found they must be."""
 BOX_PUSHING_SIZES = (6, 8, 10)
 """The grid sizes of the published curves (``bp6``, ``bp8``, ``bp10``)."""
-ACAC_PUBLISHED = frozen(
-    {"acac": frozen({"num_envs": 32, "gamma": 0.98, "total_samples": 2_500_000})}
-)
-"""ACAC as its published runs (box-pushing reference §10): 32 environments, γ = 0.98. Its
-rounds throw away every unfinished episode, and its published curves count only finished
-training episodes' ticks (``published_steps``): a 6x6 pilot (seed 0) had 102K of those at 489K
-of maopg's samples, about one in five while ε is still high (0.67 there), so its runs go on to
-2.5M samples for the published 500K and are read on either counter."""
+ACAC_COLLECTION = frozen({"num_envs": 32, "gamma": 0.98})
+"""ACAC's published collection on Box Pushing (box-pushing reference §10): 32 environments in
+lockstep, γ = 0.98."""
+ACAC_PUBLISHED = frozen({"acac": frozen({**ACAC_COLLECTION, "total_samples": 2_500_000})})
+"""ACAC as its published runs (:data:`ACAC_COLLECTION`). Its rounds throw away every unfinished
+episode, and its published curves count only finished training episodes' ticks
+(``published_steps``): a 6x6 pilot (seed 0) had 102K of those at 489K of maopg's samples, about
+one in five while ε is still high (0.67 there), so its runs go on to 2.5M samples for the
+published 500K and are read on either counter."""
 
 
-def _macromarl(size: int) -> Settings:
+def macromarl(size: int) -> Settings:
     """Mac-IAICC as MacroMARL's Box Pushing scripts run it at ``size``: 32 environments and 32
     episodes a round, γ = 0.98, the target critics copied every 128 episodes on 6x6 and 64 on
     the larger grids, ε over 4,000 episodes (6,000 on 10x10); 1.5M samples, its rounds
@@ -232,7 +233,7 @@ def _box_pushing_grid(size: int) -> Study:
                 (0, 1, 2, 3, 4),
                 frozen({"size": size}),
                 frozen({"total_samples": 500_000}),
-                frozen({**RECURRENT_HISTORY, **ACAC_PUBLISHED, **_macromarl(size)}),
+                frozen({**RECURRENT_HISTORY, **ACAC_PUBLISHED, **macromarl(size)}),
                 threshold=BOX_PUSHING_THRESHOLD,
             ),
         ),

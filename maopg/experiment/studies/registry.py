@@ -111,6 +111,14 @@ class Study:
 PAPER = "paper"
 """The committed reproduction of the paper's comparison."""
 
+LEADERBOARD = "leaderboard"
+"""Not a study but built from them: every method on every task that supports it, on one scale
+(:mod:`maopg.experiment.studies.leaderboard`); ``eval reproduce --study leaderboard``."""
+LEADERBOARD_ABOUT = (
+    "every method on every task that supports it, reusing the studies' runs: final returns and "
+    "normalised scores with bootstrap intervals, interquartile means across tasks"
+)
+
 _STUDIES: dict[str, Callable[[], Study]] = {}
 
 

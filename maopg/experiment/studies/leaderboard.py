@@ -1,0 +1,455 @@
+"""The leaderboard: every method on every task that supports it, read by one protocol and set
+on one scale (``python -m eval reproduce --study leaderboard``; ``results/leaderboard/``).
+
+A **board** is one task of a committed study at that study's settings, seeds, budget and
+threshold (Tool Delivery of the ``paper`` study, the 6x6 grid of ``box-pushing-6``, the team of
+eight of ``teams``, ...), and the methods ranked on it. A method's runs that a committed study
+already has are read where they are — and trained there, by that study's own definition, while
+they are missing — so a leaderboard cell is never a second copy of a study's cell; a method no
+study runs on that task trains under ``results/leaderboard/runs/<board>/`` at the board's
+settings plus its :attr:`Board.method_overrides`.
+
+The protocol, the same for every method and board: a run's **final return** is the mean
+training-episode return over its last 10 % of samples (:func:`~maopg.experiment.studies.runs.final`,
+the figure of every study's tables; every method logs it, while an evaluation during training
+exists only where a study asked for one), its **samples to threshold** the first iteration
+whose trailing mean over 5 logged iterations reaches the board's threshold. Its **normalised
+score** is ``(R − R_random) / (R_scripted − R_random)`` against the uniform-random and scripted
+policies measured at the board's settings (0: random, 1: the scripted heuristic).
+
+Per board: each method's mean final return and normalised score with a percentile bootstrap
+95 % interval over its seeds, its samples to threshold over the seeds that reach it, and every
+seed's outcome. Across boards: each method's interquartile mean of normalised scores with a
+stratified bootstrap interval (every board's seeds resampled within the board), over the boards
+it runs on and over the boards every ranked method shares, and a performance profile (the share
+of runs scoring above each τ): Agarwal et al., NeurIPS 2021.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from maopg.experiment.studies.builtin import (
+    ACAC_COLLECTION,
+    BOX_PUSHING_METHODS,
+    PAPER_METHODS,
+    macromarl,
+)
+from maopg.experiment.studies.cache import behaviour, cached
+from maopg.experiment.studies.grid import Cell, run_grid
+from maopg.experiment.studies.registry import (
+    LEADERBOARD,
+    PAPER,
+    Settings,
+    Study,
+    frozen,
+    get_study,
+)
+from maopg.experiment.studies.results import normalising_levels, reference_results
+from maopg.experiment.studies.runs import (
+    RETURN,
+    RunData,
+    discover_runs,
+    final,
+    samples_to_threshold,
+)
+from maopg.experiment.studies.stats import (
+    bootstrap_interval,
+    iqm,
+    performance_profile,
+    stratified_bootstrap_interval,
+)
+from maopg.experiment.studies.tables import markdown_table
+
+THRESHOLD_WINDOW = 5
+"""Logged iterations the samples-to-threshold curve is smoothed over (as every study's)."""
+REFERENCE_EPISODES = 100
+"""Episodes of each reference policy a board's normalising levels average."""
+PROFILE_TAUS = np.linspace(-0.5, 1.5, 81)
+"""The normalised scores τ of the performance profile."""
+AGENT_METHODS = ("acac", "mac-iaicc")
+"""The literature's asynchronous methods (issue 45): per-agent actors, so they run at any team
+size."""
+TEAM_METHODS = ("async-ar", "partial-ar", "sync-cut-ar")
+"""The factored forms of the paper's methods that fit a team of eight (the product
+categorical's 15.3M joint options do not: the ``teams`` study)."""
+
+TUNING: Mapping[str, str] = {
+    **dict.fromkeys(
+        (*PAPER_METHODS, *TEAM_METHODS),
+        "maopg's defaults, one set for every task (chosen on Tool Delivery and Water Filling)",
+    ),
+    "async-rnn": "maopg's defaults with the GRU over options and layer norm of the memory study",
+    "acac": "ACAC's published Box Pushing settings on every task; 32 environments, γ 0.98 on "
+    "Box Pushing as published; no tuning here",
+    "mac-iaicc": "MacroMARL's Box Pushing scripts' settings on every task (its 6x6 script's "
+    "on the grid's sizes); no tuning here",
+}
+"""How each method's settings were chosen: the tuning budget beside its rows."""
+
+
+@dataclass(frozen=True)
+class Board:
+    """One task of the leaderboard: ``task`` of the committed study ``study`` (its settings,
+    seeds, budget and threshold) and the methods ranked on it."""
+
+    name: str
+    study: str
+    task: str
+    methods: tuple[str, ...]
+    reuse: Mapping[str, str] = field(default_factory=frozen)
+    """Method → another committed study whose runs of this same task it reads (the study's own
+    methods are read from it without saying)."""
+    method_overrides: Mapping[str, Settings] = field(default_factory=frozen)
+    """Train settings of the methods trained here (those no committed study runs)."""
+
+    def home(self, method: str) -> str | None:
+        """The committed study whose runs hold ``method``'s cells, ``None`` for the
+        leaderboard's own."""
+        if method in self.reuse:
+            return self.reuse[method]
+        return self.study if method in get_study(self.study).methods else None
+
+    def grids(self, root: Path) -> list[tuple[Study, Path, tuple[str, ...]]]:
+        """``(study, run root, methods)`` of each grid that holds this board's cells: the
+        committed studies' (their own definitions, their run roots) and, for the methods no
+        study runs, this board's own study under ``root / name``."""
+        homes: dict[str | None, list[str]] = {}
+        for method in self.methods:
+            homes.setdefault(self.home(method), []).append(method)
+        grids = []
+        for home, methods in homes.items():
+            if home is not None:
+                study = get_study(home)
+                grids.append((study, study.runs_dir(), tuple(methods)))
+                continue
+            source = get_study(self.study)
+            task = source.task(self.task)
+            own = replace(task, method_overrides={**task.method_overrides, **self.method_overrides})
+            study = Study(
+                f"{LEADERBOARD}-{self.name}",
+                f"{', '.join(methods)} on the {self.name} board",
+                (own,),
+                tuple(methods),
+                overrides=source.overrides,
+            )
+            grids.append((study, root / self.name, tuple(methods)))
+        return grids
+
+
+def _boards() -> tuple[Board, ...]:
+    """The leaderboard's boards (module docstring): the issue's tasks, each at its committed
+    study's settings. In MuJoCo's Box Pushing ACAC and Mac-IAICC collect as on the grid (32
+    environments, γ 0.98, Mac-IAICC's 6x6 targets and ε) within the study's budget."""
+    grid_methods = (*BOX_PUSHING_METHODS, *AGENT_METHODS)
+    mujoco = {k: v for k, v in macromarl(6)["mac-iaicc"].items() if k != "total_samples"}
+    return (
+        Board(
+            "tool_delivery",
+            PAPER,
+            "tool_delivery",
+            (*PAPER_METHODS, "async-ar", *AGENT_METHODS),
+            reuse=frozen({"async-ar": "chain-rule"}),
+        ),
+        Board(
+            "water_filling",
+            PAPER,
+            "water_filling",
+            (*PAPER_METHODS, "async-rnn", *AGENT_METHODS),
+            reuse=frozen({"async-rnn": "memory"}),
+        ),
+        Board("box_pushing_grid_6", "box-pushing-6", "box_pushing_grid", grid_methods),
+        Board("box_pushing_grid_10", "box-pushing-10", "box_pushing_grid", grid_methods),
+        Board(
+            "box_pushing",
+            "box-pushing-mujoco",
+            "box_pushing",
+            grid_methods,
+            method_overrides=frozen({"acac": ACAC_COLLECTION, "mac-iaicc": frozen(mujoco)}),
+        ),
+        Board("tool_delivery_8_masked", "teams", "tool_delivery", (*TEAM_METHODS, *AGENT_METHODS)),
+        Board(
+            "tool_delivery_8", "teams-canonical", "tool_delivery", (*TEAM_METHODS, *AGENT_METHODS)
+        ),
+        Board("water_filling_8", "teams", "water_filling", (*TEAM_METHODS, *AGENT_METHODS)),
+    )
+
+
+BOARDS = _boards()
+"""The committed leaderboard."""
+
+
+# ------------------------------------------------------------------------------- per run
+@dataclass(frozen=True)
+class Entry:
+    """One run read by the leaderboard's protocol."""
+
+    board: str
+    method: str
+    seed: int
+    final_return: float
+    score: float
+    """Normalised final return (``nan`` where the board has no reference levels)."""
+    to_threshold: float
+    """Samples to the board's threshold (``nan``: never reached, or no threshold)."""
+    finished: bool
+
+
+def board_runs(board: Board, root: Path) -> list[RunData]:
+    """The logged runs of the board's methods on its task, wherever they live
+    (:meth:`Board.grids`)."""
+    found = []
+    for _, runs_root, methods in board.grids(root):
+        if runs_root.exists():
+            found += [
+                r
+                for r in discover_runs([runs_root])
+                if r.task == board.task and r.method in methods
+            ]
+    return found
+
+
+def entries(
+    board: Board, runs: Sequence[RunData], levels: tuple[float, float] | None
+) -> list[Entry]:
+    """Each run of the board by the protocol (module docstring); ``levels``: the board's
+    ``(random, scripted)`` mean returns."""
+    threshold = get_study(board.study).task(board.task).threshold
+    out = []
+    for run in runs:
+        value = final(run, RETURN)
+        score = math.nan if levels is None else (value - levels[0]) / (levels[1] - levels[0])
+        reached = (
+            samples_to_threshold(run, threshold, RETURN, THRESHOLD_WINDOW)
+            if threshold is not None
+            else math.nan
+        )
+        out.append(Entry(board.name, run.method, run.seed, value, score, reached, run.finished))
+    return out
+
+
+def board_levels(board: Board, results_dir: Path, episodes: int) -> tuple[float, float]:
+    """The board's ``(random, scripted)`` mean returns under ``continue`` at its settings,
+    cached in ``<results>/references/<board>.json``."""
+    task = get_study(board.study).task(board.task)
+    key: dict = {"episodes": episodes, **behaviour([task.task]), "settings": dict(task.settings)}
+    path = results_dir / "references" / f"{board.name}.json"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    summaries = cached(path, key, lambda: reference_results([task], episodes, ("continue",)))
+    return normalising_levels(summaries)[task.task]
+
+
+# ------------------------------------------------------------------------------- tables
+def _interval(values: Sequence[float], digits: int) -> str:
+    """``mean [low, high]``: the percentile bootstrap 95 % interval of the mean; the bare
+    value for one seed, ``—`` for none."""
+    kept = [v for v in values if not math.isnan(v)]
+    if not kept:
+        return "—"
+    mean = float(np.mean(kept))
+    if len(kept) == 1:
+        return f"{mean:.{digits}f}"
+    low, high = bootstrap_interval(kept)
+    return f"{mean:.{digits}f} [{low:.{digits}f}, {high:.{digits}f}]"
+
+
+def _large(value: float) -> str:
+    return f"{value / 1000:.0f}K" if abs(value) >= 10_000 else f"{value:.1f}"
+
+
+def board_table(board: Board, rows: Sequence[Entry]) -> str:
+    """One board: per method its tuning, seeds, final return and normalised score (mean and
+    bootstrap 95 % interval), samples to threshold over the seeds that reach it, every seed."""
+    table = []
+    for method in board.methods:
+        mine = sorted((e for e in rows if e.method == method), key=lambda e: e.seed)
+        if not mine:
+            table.append([method, TUNING.get(method, "—"), "0", "—", "—", "—", "not run yet"])
+            continue
+        running = sum(not e.finished for e in mine)
+        seeds = f"{len(mine)}" + (f" ({running} running)" if running else "")
+        reached = [e.to_threshold for e in mine if not math.isnan(e.to_threshold)]
+        threshold = _interval(reached, 0) + f" ({len(reached)} of {len(mine)})"
+        each = ", ".join(
+            f"seed{e.seed} {_large(e.final_return)}{' ✓' if not math.isnan(e.to_threshold) else ''}"
+            for e in mine
+        )
+        table.append(
+            [
+                method,
+                TUNING.get(method, "—"),
+                seeds,
+                _interval([e.final_return for e in mine], 1),
+                _interval([e.score for e in mine], 2),
+                threshold,
+                each,
+            ]
+        )
+    header = [
+        "method",
+        "tuning",
+        "seeds",
+        "final return [95 % CI]",
+        "normalised [95 % CI]",
+        "samples to threshold [95 % CI] (seeds)",
+        "each seed: final return (✓ reached the threshold)",
+    ]
+    return markdown_table(header, table)
+
+
+def aggregate_table(boards: Sequence[Board], rows: Sequence[Entry]) -> str:
+    """Per method: the interquartile mean of its normalised scores with a stratified bootstrap
+    95 % interval, over every board it has runs on and over the boards every method that has
+    runs shares (the only comparison of methods on equal terms)."""
+    methods = list(dict.fromkeys(m for b in boards for m in b.methods))
+    ran = {m: {e.board for e in rows if e.method == m and not math.isnan(e.score)} for m in methods}
+    ranked = [m for m in methods if ran[m]]
+    shared = set.intersection(*(ran[m] for m in ranked)) if ranked else set()
+    table = []
+    for method in ranked:
+        cells = [method, str(len(ran[method]))]
+        for chosen in (ran[method], shared):
+            scores = [
+                np.array([e.score for e in rows if e.method == method and e.board == b])
+                for b in sorted(chosen)
+            ]
+            if not scores:
+                cells.append("—")
+                continue
+            low, high = stratified_bootstrap_interval(scores)
+            cells.append(f"{iqm(np.concatenate(scores)):.2f} [{low:.2f}, {high:.2f}]")
+        table.append(cells)
+    header = [
+        "method",
+        "boards",
+        "IQM normalised, its boards [95 % CI]",
+        f"IQM normalised, the {len(shared)} shared boards [95 % CI]",
+    ]
+    note = f"\nShared boards: {', '.join(sorted(shared)) or 'none yet'}.\n"
+    return markdown_table(header, table) + note
+
+
+def plot_profile(rows: Sequence[Entry], out_stem: Path) -> list[Path]:
+    """The performance profile (the share of each method's runs, pooled over its boards, whose
+    normalised score exceeds τ) as ``<out_stem>.png`` and ``.svg``."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, 4.2))
+    for method in dict.fromkeys(e.method for e in rows):
+        scores = np.array([e.score for e in rows if e.method == method and not math.isnan(e.score)])
+        if scores.size:
+            profile = performance_profile(scores, PROFILE_TAUS)
+            ax.plot(PROFILE_TAUS, profile, label=f"{method} ({scores.size} runs)")
+    ax.set_xlabel("normalised score τ (0: random, 1: scripted)")
+    ax.set_ylabel("fraction of runs with score > τ")
+    ax.set_title("Performance profile over the leaderboard's boards", fontsize=11)
+    ax.grid(alpha=0.3)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1), fontsize=7)
+    fig.tight_layout()
+    paths = []
+    with plt.rc_context({"svg.hashsalt": "maopg"}):  # the same runs redraw identical files
+        for suffix, metadata in ((".png", {"Software": None}), (".svg", {"Date": None})):
+            paths.append(out_stem.with_suffix(suffix))
+            fig.savefig(paths[-1], dpi=130, metadata=metadata)
+    plt.close(fig)
+    return paths
+
+
+# ------------------------------------------------------------------------------- reproduce
+def reproduce_leaderboard(
+    results_dir: str | Path = Path("results", LEADERBOARD),
+    *,
+    boards: Sequence[Board] = BOARDS,
+    methods: Sequence[str] | None = None,
+    train: bool = True,
+    reference_episodes: int = REFERENCE_EPISODES,
+    log: Callable[[str], None] = print,
+    **grid_kw,
+) -> tuple[dict[tuple[str, Cell], str], list[Path]]:
+    """Bring every board's cells to finished (each in the grid that holds it: a committed
+    study's own, or ``<results>/runs/<board>``), then write ``tables.md``, ``scores.csv`` and
+    the performance profile from the logged runs. Returns each cell's outcome (by board) and
+    the files written. ``methods``: only these (all boards' by default); ``grid_kw``:
+    :func:`~maopg.experiment.studies.grid.run_grid`'s ``jobs``, ``dry_run``, ``in_process``, ...
+    A ``dry_run`` writes nothing."""
+    out = Path(results_dir)
+    chosen = [
+        replace(b, methods=tuple(m for m in b.methods if methods is None or m in methods))
+        for b in boards
+    ]
+    outcomes: dict[tuple[str, Cell], str] = {}
+    for board in chosen if train else ():
+        for study, runs_root, board_methods in board.grids(out / "runs"):
+            log(f"{board.name}: {', '.join(board_methods)} in {runs_root}")
+            done = run_grid(
+                runs_root,
+                study=study,
+                tasks=[board.task],
+                methods=board_methods,
+                log=log,
+                **grid_kw,
+            )
+            outcomes.update({(board.name, cell): outcome for cell, outcome in done.items()})
+    if grid_kw.get("dry_run"):
+        return outcomes, []
+    out.mkdir(parents=True, exist_ok=True)
+    rows: list[Entry] = []
+    sections = []
+    for board in chosen:
+        runs = board_runs(board, out / "runs")
+        levels = board_levels(board, out, reference_episodes) if runs else None
+        mine = entries(board, runs, levels)
+        rows += mine
+        sections.append(f"## {board.name}\n\n{_about(board, levels, reference_episodes)}")
+        sections[-1] += board_table(board, mine)
+    text = (
+        "# Leaderboard\n\nGenerated by `python -m eval reproduce --study leaderboard` from the "
+        "logged runs (the protocol: `maopg.experiment.studies.leaderboard`). Final return: the "
+        "mean training-episode return over a run's last 10 % of samples; normalised: (R − "
+        "R_random) / (R_scripted − R_random) at the board's settings; intervals: percentile "
+        "bootstrap 95 % over seeds (10,000 resamples); across boards: the interquartile mean "
+        "with a stratified bootstrap interval (Agarwal et al., NeurIPS 2021).\n\n"
+        "## Across boards\n\n" + aggregate_table(chosen, rows) + "\n"
+        "![performance profile](performance_profile.png)\n\n" + "\n\n".join(sections) + "\n"
+    )
+    written = [out / "tables.md"]
+    written[0].write_text(text)
+    written.append(_write_scores(rows, out / "scores.csv"))
+    written += plot_profile(rows, out / "performance_profile")
+    return outcomes, written
+
+
+def _about(board: Board, levels: tuple[float, float] | None, episodes: int) -> str:
+    """The board's line: where it comes from, its settings, seeds, threshold and levels."""
+    task = get_study(board.study).task(board.task)
+    settings = ", ".join(f"{k}={v}" for k, v in task.settings.items()) or "default settings"
+    threshold = "no threshold" if task.threshold is None else f"threshold {task.threshold:g}"
+    line = (
+        f"`{board.task}` of the `{board.study}` study ({settings}; {len(task.seeds)} seeds; "
+        f"{threshold})"
+    )
+    if levels is None:
+        return line + ": no runs yet.\n\n"
+    return (
+        line + f"; random {levels[0]:.1f}, scripted {levels[1]:.1f} over {episodes} episodes.\n\n"
+    )
+
+
+def _write_scores(rows: Sequence[Entry], path: Path) -> Path:
+    """Every run's figures, one line each, for other tools."""
+    lines = ["board,method,seed,final_return,normalised,samples_to_threshold,finished"]
+    lines += [
+        f"{e.board},{e.method},{e.seed},{e.final_return:.4f},{e.score:.4f},"
+        f"{e.to_threshold:.0f},{int(e.finished)}"
+        for e in rows
+    ]
+    path.write_text("\n".join(lines) + "\n")
+    return path

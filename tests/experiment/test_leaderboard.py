@@ -1,0 +1,124 @@
+"""The leaderboard (maopg.experiment.studies.leaderboard): its boards reuse the studies' runs
+at their settings, its protocol reads every run alike, and a tiny leaderboard trains what no
+study runs and writes its tables, scores and profile."""
+
+from __future__ import annotations
+
+import csv
+import math
+
+import numpy as np
+import pytest
+
+from maopg.experiment.studies import Study, StudyTask, frozen, get_study, registry
+from maopg.experiment.studies.leaderboard import (
+    BOARDS,
+    TUNING,
+    Board,
+    Entry,
+    aggregate_table,
+    reproduce_leaderboard,
+)
+from maopg.experiment.studies.stats import iqm
+
+
+def test_the_boards_are_the_issues_tasks_at_their_studies_settings():
+    assert [b.name for b in BOARDS] == [
+        "tool_delivery",
+        "water_filling",
+        "box_pushing_grid_6",
+        "box_pushing_grid_10",
+        "box_pushing",
+        "tool_delivery_8_masked",
+        "tool_delivery_8",
+        "water_filling_8",
+    ]
+    for board in BOARDS:
+        source = get_study(board.study).task(board.task)
+        assert source.threshold is not None
+        assert all(m in TUNING for m in board.methods), board.name
+        for method, home in board.reuse.items():
+            # A reused study's runs are the same experiment: task settings, seeds, budget.
+            other = get_study(home).task(board.task)
+            assert (other.settings, other.seeds) == (source.settings, source.seeds)
+            assert dict(get_study(home).overrides).get("total_samples") == dict(
+                get_study(board.study).overrides
+            ).get("total_samples")
+            assert method in get_study(home).methods or method in get_study(home).baselines
+
+
+@pytest.mark.parametrize("board", [b for b in BOARDS if "_8" in b.name], ids=lambda b: b.name)
+def test_the_teams_of_eight_rank_no_product_categorical(board):
+    """At team size 8 a head over the joint options (15.3M on Tool Delivery) is refused before
+    it is built (maopg.policy.joint_size): the team boards rank only methods whose policies
+    factor over the robots."""
+    assert not {"async", "sync-cut", "sync-wait", "partial", "end2end", "mac-dqn"} & set(
+        board.methods
+    )
+
+
+def _entry(board: str, method: str, seed: int, score: float) -> Entry:
+    return Entry(board, method, seed, score * 100, score, math.nan, True)
+
+
+def test_the_aggregate_is_the_iqm_over_a_methods_boards_and_the_shared_ones():
+    boards = [Board("a", "paper", "tool_delivery", ("x", "y")), Board("b", "paper", "x", ("x",))]
+    rows = [_entry("a", "x", s, v) for s, v in enumerate((0.0, 1.0, 2.0, 3.0))]
+    rows += [_entry("b", "x", s, v) for s, v in enumerate((10.0, 10.0))]
+    rows += [_entry("a", "y", s, v) for s, v in enumerate((0.5, 0.5))]
+    table = aggregate_table(boards, rows).splitlines()
+    # x over its two boards: IQM of (0, 1, 2, 3, 10, 10) = mean(2, 3, 10) ... a quarter is 1.
+    assert iqm(np.array([0.0, 1.0, 2.0, 3.0, 10.0, 10.0])) == pytest.approx(4.0)
+    assert table[2].startswith("| x | 2 | 4.00 [")
+    # On the one board both share (a): x's IQM of (0, 1, 2, 3) is 1.5; y's is 0.5 exactly.
+    assert "| 1.50 [" in table[2]
+    assert table[3] == "| y | 1 | 0.50 [0.50, 0.50] | 0.50 [0.50, 0.50] |"
+    assert table[-1] == "Shared boards: a."
+
+
+def test_a_tiny_leaderboard_trains_what_no_study_runs_and_reads_the_rest(tmp_path, monkeypatch):
+    """A study with ``async`` on Tool Delivery (2 seeds, 1,500 samples); its board also ranks
+    ``sync-cut``, which the study does not run: the leaderboard trains it in its own folder,
+    trains the study's cells in the study's, and writes one row per method."""
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(registry, "_STUDIES", dict(registry._STUDIES))  # registered here only
+    tiny = Study(
+        "tiny",
+        "-",
+        (StudyTask("tool_delivery", (0, 1), threshold=-1000.0),),
+        ("async",),
+        frozen({"total_samples": 1_500, "batch_ticks": 500, "plot": False}),
+    )
+    registry.register_study("tiny", lambda: tiny)
+    monkeypatch.setitem(TUNING, "sync-cut", "-")
+    board = Board("td", "tiny", "tool_delivery", ("async", "sync-cut"))
+    outcomes, written = reproduce_leaderboard(
+        tmp_path / "lb", boards=[board], in_process=True, reference_episodes=2, log=lambda _: None
+    )
+    assert sorted(outcomes.values()) == ["done"] * 4
+    assert (tmp_path / "results/tiny/runs/tool_delivery/async/seed1/done.json").exists()
+    assert (tmp_path / "lb/runs/td/tool_delivery/sync-cut/seed1/done.json").exists()
+    assert {p.name for p in written} == {
+        "tables.md",
+        "scores.csv",
+        "performance_profile.png",
+        "performance_profile.svg",
+    }
+    with (tmp_path / "lb/scores.csv").open(newline="") as handle:
+        scores = list(csv.DictReader(handle))
+    assert sorted((r["method"], r["seed"]) for r in scores) == [
+        ("async", "0"),
+        ("async", "1"),
+        ("sync-cut", "0"),
+        ("sync-cut", "1"),
+    ]
+    assert all(r["samples_to_threshold"] != "nan" for r in scores)  # −1000: reached at once
+    text = (tmp_path / "lb/tables.md").read_text()
+    assert "| async | maopg's defaults" in text and "| sync-cut | - | 2 |" in text
+    assert "Shared boards: td." in text
+    # A second call trains nothing and writes the same tables.
+    again, _ = reproduce_leaderboard(
+        tmp_path / "lb", boards=[board], in_process=True, reference_episodes=2, log=lambda _: None
+    )
+    assert set(again.values()) == {"skipped"}
+    assert (tmp_path / "lb/tables.md").read_text() == text
