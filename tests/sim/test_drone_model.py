@@ -77,7 +77,8 @@ def register(tmp_path, monkeypatch):
 
 def test_a_quadrotor_of_another_size_passes_the_checks_with_the_shipped_gains(register) -> None:
     """Its yaw inertia (0.069 kg m^2 against 0.022) needs three times the shipped drone's yaw
-    torque for the same turn: an absolute torque cap left it 0.6 rad short of a 90 degree turn."""
+    torque for the same turn: the shipped drone's 0.04 N m cap, as an absolute constant, left it
+    1.08 rad short of the check's 90 degree turn."""
     name = register("quad", quadrotor())
     results = check_robot(name, "drone")
     assert all(r.passed for r in results), format_report(name, "drone", results)
