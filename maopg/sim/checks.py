@@ -10,8 +10,14 @@ each against a stated threshold taken from the tasks' own tolerances:
             Water Filling's ``NavTo``), face the direction of travel, hold still;
 ``drone``   take off to cruise altitude and hold it, fly 3 m, turn to a commanded yaw;
 ``arm``     reach three points around the start grasp position (IK + servos), hold still;
-every role  its adapter binds (``compose``), no physics warning (``stable``), and the camera
-            renders a non-flat image (``camera``).
+every role  its adapter binds (``compose``); no physics warning, and holding still at the end
+            it stays where it is (``stable``: a servo too stiff for the timestep can wander
+            without MuJoCo warning of anything); the camera renders a non-flat image
+            (``camera``).
+
+A failing check names what to change: the robot's constants (``TurtlebotConstants.kv``), the
+setting, or the part of its MJCF, with the way to change it (raise, lower), where the check can
+tell (:data:`ADVICE`).
 
 ``python -m eval check-robot --robot NAME --role ROLE`` prints the report
 (:func:`cmd_check_robot`); the every-robot test in ``tests/sim`` asserts that every registered
@@ -21,6 +27,7 @@ robot passes, so a shipped robot that breaks one of them fails the suite.
 from __future__ import annotations
 
 import argparse
+import itertools
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -29,22 +36,18 @@ import numpy as np
 
 from maopg.sim.render import CameraRenderer
 from maopg.sim.robots import (
+    ROLES,
     ArmAdapter,
     DroneAdapter,
     GroundAdapter,
     RobotAdapter,
     RobotSpec,
     get_robot,
+    role_of,
 )
 from maopg.sim.robots.base import wrap_angle
 from maopg.sim.scene import PhysicsInstability, Scene, SceneBuilder
 
-ROLES: dict[str, type[RobotAdapter]] = {
-    "ground": GroundAdapter,
-    "drone": DroneAdapter,
-    "arm": ArmAdapter,
-}
-"""Each role and the adapter class a robot in it must have."""
 TIMESTEPS = {"ground": 0.02, "drone": 0.005, "arm": 0.02}
 """Default physics step per role: that of the coarsest task using it (Tool Delivery's 20 ms
 for bases and arms, Water Filling's 5 ms for drones), where stiff gains go unstable first."""
@@ -77,6 +80,33 @@ ARM_SECONDS = 3.0
 ARM_HOLD_TOL = 0.005  # m
 CAMERA_MIN_STD = 5.0
 """A camera image with less grey-level spread than this is flat (inside a geom, black)."""
+STABLE_DRIFT = {"ground": HOLD_TOL, "drone": HOLD_TOL, "arm": ARM_HOLD_TOL}
+"""How far (m) the robot (an arm: its grasp site) may move while it holds still at the end."""
+SETTLING = 0.8
+"""A drift that slows tick by tick to less than this share of its first tick's is a servo still
+bringing the robot to a stop (too weak); one that does not is a servo too stiff for the step."""
+
+Change = tuple[str, str]
+"""A constant of a robot's constants a failing check suggests, and which way: ("kv", "raise")."""
+ADVICE: dict[str, tuple[Change, ...]] = {
+    "ground reach": (("kv", "raise"), ("wheel_kv", "raise"), ("pos_kp", "raise")),
+    "ground heading": (("yaw_kp", "raise"), ("heading_kp", "raise")),
+    "drone altitude": (("vel_kp_z", "raise"), ("max_climb", "raise")),
+    "drone reach": (("vel_kp", "raise"), ("accel", "raise"), ("max_tilt", "raise")),
+    "drone yaw": (("yaw_kp", "raise"),),
+    "drone yaw max_yaw_accel": (("max_yaw_accel", "raise"),),
+    "drone yaw yaw_share": (("yaw_share", "raise"),),
+    "arm reach": (("kp", "raise"),),
+    "ground stiff": (("kv", "lower"), ("wheel_kv", "lower"), ("yaw_kp", "lower")),
+    "drone stiff": (("att_kp", "lower"), ("att_kd", "lower")),
+    "arm stiff": (("kp", "lower"), ("kv", "lower")),
+    "ground weak": (("kv", "raise"), ("wheel_kv", "raise")),
+    "drone weak": (("pos_kp", "raise"), ("vel_kp", "raise")),
+    "arm weak": (("kp", "raise"), ("kv", "raise")),
+}
+"""What each failing check suggests, by role and check ("stiff"/"weak": a robot that does not
+hold still, its servos too stiff for the timestep or too weak to stop it); the shipped
+adapters' constants' names, so a user's constants that reuse them get the advice too."""
 
 
 @dataclass(frozen=True)
@@ -123,13 +153,24 @@ def format_report(name: str, role: str, results: Sequence[CheckResult]) -> str:
     return "\n".join(lines)
 
 
-def role_of(adapter: type[RobotAdapter]) -> str:
-    """The role an adapter class plays (the first of :data:`ROLES` it subclasses)."""
-    for role, base in ROLES.items():
-        if issubclass(adapter, base):
-            return role
-    bases = ", ".join(b.__name__ for b in ROLES.values())
-    raise ValueError(f"{adapter.__name__} is none of {bases}: it has no role to check")
+def advice(robot: RobotAdapter, key: str) -> str:
+    """What to change, as ``"TurtlebotConstants: raise kv (now 300)"``: the changes of
+    :data:`ADVICE` ``[key]`` that the robot's constants have; a general line where none."""
+    constants = robot.constants
+    present = [(f, way) for f, way in ADVICE[key] if hasattr(constants, f)]
+    if not present:
+        return f"tune {type(robot).__name__}'s gains"
+    parts = []
+    for way in dict.fromkeys(way for _, way in present):
+        fields = [f"{f} (now {_shown(getattr(constants, f))})" for f, w in present if w == way]
+        parts.append(f"{way} {' or '.join(fields)}")
+    return f"{type(constants).__name__}: {'; '.join(parts)}"
+
+
+def _shown(value: object) -> str:
+    if isinstance(value, tuple):
+        return "(" + ", ".join(_shown(v) for v in value) + ")"
+    return f"{value:.3g}" if isinstance(value, float) else repr(value)
 
 
 def compose(spec: RobotSpec, timestep: float) -> Scene:
@@ -156,10 +197,11 @@ def _planar_error(robot: RobotAdapter, xy: Sequence[float]) -> float:
 
 
 def _trip(
-    scene: Scene, robot: RobotAdapter, name: str, target: Sequence[float], tol: float
+    scene: Scene, robot: RobotAdapter, name: str, target: Sequence[float], tol: float, hint: str
 ) -> CheckResult:
     """The trip to ``target`` commanded already: it must come within ``tol`` at a tick
-    before its full-speed travel time plus :data:`SLACK` (the figure: the time it took)."""
+    before its full-speed travel time plus :data:`SLACK` (the figure: the time it took;
+    ``hint``: what to change when it does not)."""
     limit = _planar_error(robot, target) / float(robot.constants.max_speed) + SLACK
     goal = np.asarray(target, dtype=float)
     closest = math.inf
@@ -172,22 +214,85 @@ def _trip(
 
     t = run_until(scene, lambda: error() <= tol, limit)
     where = tuple(round(float(v), 2) for v in target)
-    detail = (
-        f"to {where}: {'error' if t is not None else 'closest'} {closest:.3f} m (tolerance {tol} m)"
-    )
+    if t is not None:
+        detail = f"to {where}: error {closest:.3f} m (tolerance {tol} m)"
+    else:
+        detail = f"to {where}: closest {closest:.3f} m (tolerance {tol} m); {hint}"
     return CheckResult(name, t is not None, limit if t is None else t, limit, "s", detail)
+
+
+@dataclass(frozen=True)
+class Drift:
+    """How a robot moved while it held still, tick by tick."""
+
+    largest: float
+    """The farthest it got from where it started (m)."""
+    steps: tuple[float, ...]
+    """How far it moved in each tick (m)."""
+
+    @property
+    def settling(self) -> bool:
+        """It is coming to a stop, each tick moving less than the last (a servo too weak to
+        stop it sooner), instead of wandering or creeping on (a servo too stiff)."""
+        steps = self.steps
+        slowing = all(b <= a + 1e-9 for a, b in itertools.pairwise(steps))
+        return slowing and steps[-1] < SETTLING * steps[0]
+
+
+def drift(scene: Scene, point: Callable[[], np.ndarray], seconds: float) -> Drift:
+    """Advance ``seconds`` tick by tick, following ``point()`` (the robot's held position)."""
+    start = previous = point()
+    largest, steps = 0.0, []
+    for _ in range(round(seconds / TICK)):
+        scene.advance(TICK)
+        now = point()
+        steps.append(float(np.linalg.norm(now - previous)))
+        largest = max(largest, float(np.linalg.norm(now - start)))
+        previous = now
+    return Drift(largest, tuple(steps))
+
+
+def _drift_advice(scene: Scene, robot: RobotAdapter, role: str, moved: Drift) -> str:
+    """Why a robot did not hold still, and what to change."""
+    if moved.settling:
+        return f"still coming to a stop: its servos are too weak; {advice(robot, role + ' weak')}"
+    step = scene.model.opt.timestep
+    return (
+        f"it wanders instead of settling: a servo too stiff for the {step:g} s timestep; "
+        f"{advice(robot, role + ' stiff')}, or the timestep"
+    )
+
+
+def _held_point(robot: RobotAdapter) -> Callable[[], np.ndarray]:
+    """What holding still keeps in place: an arm's grasp site, any other robot's root body."""
+    if isinstance(robot, ArmAdapter):
+        return lambda: robot.grasp_site_position
+    return lambda: robot.position
 
 
 def _hold(scene: Scene, robot: RobotAdapter) -> CheckResult:
     """After a tick to stop, ``hold()`` keeps the robot where it stopped."""
     robot.hold()
     scene.advance(TICK)
-    start = robot.position
-    drift = 0.0
-    for _ in range(round(HOLD_SECONDS / TICK)):
-        scene.advance(TICK)
-        drift = max(drift, float(np.linalg.norm(robot.position - start)))
-    return bounded("hold", drift, HOLD_TOL, "m", f"largest drift over {HOLD_SECONDS:.0f} s")
+    moved = drift(scene, _held_point(robot), HOLD_SECONDS)
+    detail = f"largest drift over {HOLD_SECONDS:.0f} s"
+    if moved.largest > HOLD_TOL:
+        detail += f"; {_drift_advice(scene, robot, role_of(type(robot)), moved)}"
+    return bounded("hold", moved.largest, HOLD_TOL, "m", detail)
+
+
+def _stable(scene: Scene, robot: RobotAdapter, role: str) -> CheckResult:
+    """At the end, holding still for :data:`HOLD_SECONDS` after a tick to stop, the robot
+    stays within :data:`STABLE_DRIFT` of where it stopped (a physics warning meanwhile is
+    raised, as in any check)."""
+    robot.hold()
+    scene.advance(TICK)
+    moved = drift(scene, _held_point(robot), HOLD_SECONDS)
+    limit = STABLE_DRIFT[role]
+    detail = f"drift holding still {HOLD_SECONDS:.0f} s, no physics warning"
+    if moved.largest > limit:
+        detail += f"; {_drift_advice(scene, robot, role, moved)}"
+    return bounded("stable", moved.largest, limit, "m", detail)
 
 
 # --- ground -----------------------------------------------------------------------------------
@@ -195,7 +300,8 @@ def _ground_leg(leg: int) -> Check:
     def check(scene: Scene, robot: GroundAdapter) -> CheckResult:
         target = GROUND_LEGS[leg]
         robot.drive_to(target)
-        return _trip(scene, robot, f"reach {leg + 1}", target, GROUND_TOL)
+        hint = advice(robot, "ground reach")
+        return _trip(scene, robot, f"reach {leg + 1}", target, GROUND_TOL, hint)
 
     return check
 
@@ -205,7 +311,10 @@ def _ground_heading(scene: Scene, robot: GroundAdapter) -> CheckResult:
     (x0, y0), (x1, y1) = GROUND_LEGS
     travel = math.atan2(y1 - y0, x1 - x0)
     error = abs(wrap_angle(robot.yaw - travel))
-    return bounded("heading", error, HEADING_TOL, "rad", f"travel direction {travel:.2f} rad")
+    detail = f"travel direction {travel:.2f} rad"
+    if error > HEADING_TOL:
+        detail += f"; {advice(robot, 'ground heading')}"
+    return bounded("heading", error, HEADING_TOL, "rad", detail)
 
 
 # --- drone ------------------------------------------------------------------------------------
@@ -215,20 +324,22 @@ def _drone_altitude(scene: Scene, robot: DroneAdapter) -> CheckResult:
     t = run_until(scene, lambda: abs(robot.position[2] - CRUISE) < ALTITUDE_TOL, CLIMB_SECONDS)
     if t is None:
         error = abs(float(robot.position[2]) - CRUISE)
-        return bounded("altitude", error, ALTITUDE_TOL, "m", f"no climb in {CLIMB_SECONDS} s")
+        detail = f"no climb in {CLIMB_SECONDS} s; {advice(robot, 'drone altitude')}"
+        return bounded("altitude", error, ALTITUDE_TOL, "m", detail)
     error = 0.0
     for _ in range(round(HOLD_SECONDS / TICK)):
         scene.advance(TICK)
         error = max(error, abs(float(robot.position[2]) - CRUISE))
-    return bounded(
-        "altitude", error, ALTITUDE_TOL, "m", f"climbed in {t:.1f} s, then held {HOLD_SECONDS} s"
-    )
+    detail = f"climbed in {t:.1f} s, then held {HOLD_SECONDS} s"
+    if error > ALTITUDE_TOL:
+        detail += f"; {advice(robot, 'drone altitude')}"
+    return bounded("altitude", error, ALTITUDE_TOL, "m", detail)
 
 
 def _drone_reach(scene: Scene, robot: DroneAdapter) -> CheckResult:
     target = (*DRONE_TARGET, CRUISE)
     robot.fly_to(target)
-    return _trip(scene, robot, "reach", target, DRONE_TOL)
+    return _trip(scene, robot, "reach", target, DRONE_TOL, advice(robot, "drone reach"))
 
 
 def _drone_yaw(scene: Scene, robot: DroneAdapter) -> CheckResult:
@@ -236,7 +347,20 @@ def _drone_yaw(scene: Scene, robot: DroneAdapter) -> CheckResult:
     robot.fly_to(robot.position, yaw=goal)
     scene.advance(YAW_SECONDS)
     error = abs(wrap_angle(robot.yaw - goal))
-    return bounded("yaw", error, YAW_TOL, "rad", f"a {YAW_TURN:.2f} rad turn in {YAW_SECONDS} s")
+    detail = f"a {YAW_TURN:.2f} rad turn in {YAW_SECONDS} s"
+    if error > YAW_TOL:
+        bounds = getattr(robot, "yaw_torque_bounds", None)  # the shipped quadrotor controller's
+        if bounds is None:
+            detail += f"; {advice(robot, 'drone yaw')}"
+        else:
+            binding = min(bounds, key=bounds.__getitem__)
+            detail += (
+                f"; the yaw torque cap, {bounds[binding]:.3g} N m, is {binding}'s: "
+                f"{advice(robot, 'drone yaw ' + binding)}"
+            )
+            if binding == "yaw_share":
+                detail += " (at most 1), or the rotors' drag torques (gear[5])"
+    return bounded("yaw", error, YAW_TOL, "rad", detail)
 
 
 # --- arm --------------------------------------------------------------------------------------
@@ -252,6 +376,8 @@ def _arm_reach(scene: Scene, robot: ArmAdapter) -> CheckResult:
         scene.advance(ARM_SECONDS)
         worst = max(worst, float(np.linalg.norm(robot.grasp_site_position - target)))
     detail = f"{len(ARM_OFFSETS)} points 0.1 m around the start, {ARM_SECONDS} s each"
+    if worst > ARM_TOL:
+        detail += f"; {advice(robot, 'arm reach')}"
     return bounded("reach", worst, ARM_TOL, "m", detail)
 
 
@@ -259,8 +385,11 @@ def _arm_hold(scene: Scene, robot: ArmAdapter) -> CheckResult:
     start = robot.grasp_site_position
     robot.hold()
     scene.advance(HOLD_SECONDS)
-    drift = float(np.linalg.norm(robot.grasp_site_position - start))
-    return bounded("hold", drift, ARM_HOLD_TOL, "m", f"grasp site drift over {HOLD_SECONDS} s")
+    moved = float(np.linalg.norm(robot.grasp_site_position - start))
+    detail = f"grasp site drift over {HOLD_SECONDS} s"
+    if moved > ARM_HOLD_TOL:
+        detail += f"; {advice(robot, 'arm weak')}"
+    return bounded("hold", moved, ARM_HOLD_TOL, "m", detail)
 
 
 Check = Callable[[Scene, RobotAdapter], CheckResult]
@@ -281,7 +410,13 @@ def _camera(scene: Scene, robot: RobotAdapter) -> CheckResult:
     with CameraRenderer(scene.model, 64, 64) as renderer:
         image = renderer.render(scene.data, [robot.camera_name])[0]
     spread = float(image.std())
-    return bounded("camera", spread, CAMERA_MIN_STD, "grey std", at_least=True)
+    detail = ""
+    if spread < CAMERA_MIN_STD:
+        detail = (
+            f"a flat image: move the camera '{robot.camera}' (the MJCF's; "
+            f"{type(robot).__name__}.camera names it) out of the robot's geoms, facing the scene"
+        )
+    return bounded("camera", spread, CAMERA_MIN_STD, "grey std", detail, at_least=True)
 
 
 def check_robot(
@@ -299,25 +434,30 @@ def check_robot(
         raise ValueError(f"unknown role {role!r}; roles: {', '.join(ROLES)}")
     if not issubclass(adapter, ROLES[role]):
         detail = f"{adapter.__name__} is not a {ROLES[role].__name__}"
+        try:
+            detail += f": check it as --role {role_of(adapter)}"
+        except ValueError:
+            detail += f" (subclass one of {', '.join(b.__name__ for b in ROLES.values())})"
         return [CheckResult("role", False, detail=detail)]
     timestep = TIMESTEPS[role] if timestep is None else timestep
     try:
         scene = compose(spec, timestep)
     except (ValueError, KeyError, TypeError) as err:  # what a robot file or adapter gets wrong
-        return [CheckResult("compose", False, detail=f"{type(err).__name__}: {err}")]
+        message = err.args[0] if isinstance(err, KeyError) and err.args else err
+        return [CheckResult("compose", False, detail=f"{type(err).__name__}: {message}")]
     robot = scene.robots[PREFIX]
     results = [CheckResult("compose", True, detail=f"{adapter.__name__}, timestep {timestep} s")]
     checks = MOTION_CHECKS[role]
-    for k, (check_name, check) in enumerate(checks):
+    for k, (check_name, check) in enumerate((*checks, ("stable", None))):
         try:
-            results.append(check(scene, robot))
+            results.append(_stable(scene, robot, role) if check is None else check(scene, robot))
         except PhysicsInstability as err:
-            results.append(CheckResult(check_name, False, detail="physics went unstable"))
-            results += [CheckResult(n, False, detail="not run") for n, _ in checks[k + 1 :]]
-            results.append(CheckResult("stable", False, detail=str(err)))
+            if check is not None:
+                results.append(CheckResult(check_name, False, detail="physics went unstable"))
+                results += [CheckResult(n, False, detail="not run") for n, _ in checks[k + 1 :]]
+            detail = f"{err} ({advice(robot, role + ' stiff')})"
+            results.append(CheckResult("stable", False, detail=detail))
             break
-    else:
-        results.append(CheckResult("stable", True, detail="no physics warning"))
     results.append(_camera(scene, robot))
     return results
 

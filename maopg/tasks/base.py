@@ -32,7 +32,7 @@ position inside the arena) belongs in the task's constructor, before it compiles
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
@@ -41,7 +41,7 @@ import numpy as np
 from maopg.options.base import Option, Strategy
 from maopg.settings import Settings, setting
 from maopg.sim.render import CameraRenderer
-from maopg.sim.robots.base import RobotAdapter
+from maopg.sim.robots import RobotAdapter, require_role
 from maopg.sim.scene import Scene
 from maopg.tasks.layout import ObsLayout
 
@@ -71,6 +71,11 @@ class SceneTaskConfig(TaskConfig):
     """The settings of a task that ticks a MuJoCo scene: a tick is a whole number of physics
     steps (the scene refuses anything else mid-episode, so the config refuses it up front)."""
 
+    ROBOT_ROLES: ClassVar[Mapping[str, str]] = {}
+    """The fields that name a registered robot, each with the role (``ground``, ``drone``,
+    ``arm``: :data:`maopg.sim.robots.ROLES`) its robot must play: a robot of another role is
+    refused when the config is made, naming the setting and the robots allowed there."""
+
     tick_seconds: float = setting(1.0, gt=0.0)
     """Simulated time of one tick, one low-level step (s)."""
     timestep: float = setting(0.002, gt=0.0)
@@ -86,6 +91,8 @@ class SceneTaskConfig(TaskConfig):
                 f"env.tick_seconds={self.tick_seconds} is not a whole number of "
                 f"env.timestep={self.timestep} physics steps"
             )
+        for field, role in self.ROBOT_ROLES.items():
+            require_role(self.PREFIX + field, getattr(self, field), role)
 
 
 class Task(ABC):

@@ -10,10 +10,12 @@ from maopg.experiment.cli.eval_cli import main as eval_main
 from maopg.sim import robots
 from maopg.sim.checks import check_robot, format_report
 from maopg.sim.robots import ASSETS_DIR, register_robot
+from maopg.sim.robots.diffbot import DiffbotConstants
 from maopg.sim.robots.turtlebot import TurtlebotConstants
 
 DRONE_XML = ASSETS_DIR / "robots" / "drone.xml"
 TURTLEBOT_XML = ASSETS_DIR / "robots" / "turtlebot.xml"
+DIFFBOT_XML = ASSETS_DIR / "robots" / "diffbot.xml"
 STIFF = TurtlebotConstants(yaw_kp=1e5, yaw_kv=0.0)
 """A heading servo far too stiff for Tool Delivery's 20 ms step: MuJoCo resets the physics."""
 
@@ -53,10 +55,12 @@ def test_a_drone_that_cannot_yaw_fails(tmp_path, registry) -> None:
     results = check_robot(drone_with_drag(tmp_path, "0"), "drone")
     assert list(failed(results)) == ["compose"]
     assert "cannot produce yaw torque" in failed(results)["compose"]
-    # rotors with almost no drag torque bind, but cannot turn it (nor, saturated by the yaw
-    # command, fly it anywhere)
-    results = check_robot(drone_with_drag(tmp_path, "0.0002"), "drone")
-    assert "compose" not in failed(results) and {"yaw", "reach"} <= set(failed(results))
+    # rotors with almost no drag torque bind and fly (the yaw torque cap keeps within what they
+    # can give at hover), but cannot turn it: the report says which bound of the cap to raise
+    problems = failed(check_robot(drone_with_drag(tmp_path, "0.0002"), "drone"))
+    assert list(problems) == ["yaw"]
+    assert "is yaw_share's: DroneConstants: raise yaw_share (now 0.5)" in problems["yaw"]
+    assert "drag torques (gear[5])" in problems["yaw"]
 
 
 def test_a_ground_robot_whose_physics_mujoco_resets_fails(tmp_path, monkeypatch, registry) -> None:
@@ -65,6 +69,46 @@ def test_a_ground_robot_whose_physics_mujoco_resets_fails(tmp_path, monkeypatch,
     assert "mjWARN_BADQACC" in problems["stable"] and "robot/yaw" in problems["stable"]
     assert problems["reach 1"] == "physics went unstable"
     assert {"reach 2", "heading", "hold"} <= set(problems)
+
+
+def test_wheel_servos_too_stiff_for_the_step_fail_stable_though_mujoco_warns_of_nothing(
+    registry,
+) -> None:
+    """Stiff wheel servos at Tool Delivery's 20 ms step rock the robot about where it should
+    stand, with no physics warning: ``stable`` measures that drift and says what to lower."""
+    adapter = "maopg.sim.robots.diffbot:DiffbotAdapter"
+    register_robot("stiff_wheels", DIFFBOT_XML, adapter, DiffbotConstants(wheel_kv=20.0))
+    results = {r.name: r for r in check_robot("stiff_wheels", "ground")}
+    stable = results["stable"]
+    assert not stable.passed and stable.measured > 0.1 and stable.threshold == 0.02
+    assert stable.detail == (
+        "drift holding still 3 s, no physics warning; it wanders instead of settling: a servo "
+        "too stiff for the 0.02 s timestep; DiffbotConstants: lower wheel_kv (now 20), or the "
+        "timestep"
+    )
+    assert results["hold"].detail.endswith("lower wheel_kv (now 20), or the timestep")
+
+
+def test_a_servo_too_weak_to_stop_the_robot_is_told_to_be_raised(registry) -> None:
+    adapter = "maopg.sim.robots.turtlebot:TurtlebotAdapter"
+    register_robot("weak", TURTLEBOT_XML, adapter, TurtlebotConstants(kv=1.0))
+    problems = failed(check_robot("weak", "ground"))
+    assert list(problems) == ["reach 1", "reach 2", "hold", "stable"]
+    assert problems["reach 1"].endswith("; TurtlebotConstants: raise kv (now 1)")
+    assert problems["stable"].endswith(
+        "still coming to a stop: its servos are too weak; TurtlebotConstants: raise kv (now 1)"
+    )
+
+
+def test_an_element_the_adapter_cannot_find_fails_compose_with_the_names_the_file_has(
+    registry,
+) -> None:
+    register_robot("wheelless", TURTLEBOT_XML, "maopg.sim.robots.diffbot:DiffbotAdapter")
+    assert failed(check_robot("wheelless", "ground")) == {
+        "compose": "KeyError: DiffbotAdapter for 'robot': the model has no actuator "
+        "'robot/wheel_left'; the robot's actuators: vx, vy, yaw; set "
+        "DiffbotConstants.wheel_actuators to one of them"
+    }
 
 
 def test_check_robot_command_prints_figures_and_sets_the_exit_status(
@@ -80,5 +124,7 @@ def test_check_robot_command_prints_figures_and_sets_the_exit_status(
 
 def test_a_robot_checked_in_a_role_its_adapter_does_not_play_fails() -> None:
     results = check_robot("turtlebot", "drone")
-    assert failed(results) == {"role": "TurtlebotAdapter is not a DroneAdapter"}
+    assert failed(results) == {
+        "role": "TurtlebotAdapter is not a DroneAdapter: check it as --role ground"
+    }
     assert "FAILED: role" in format_report("turtlebot", "drone", results)

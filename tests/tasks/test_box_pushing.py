@@ -6,12 +6,16 @@ documented difference."""
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
 from maopg.env import DecisionPoint, OptionEnv, make_env
 from maopg.env.rollout import RandomPolicy, reference_policy, run_episode
-from maopg.sim.robots import GroundAdapter, get_robot, robot_names
+from maopg.sim import robots
+from maopg.sim.robots import GroundAdapter, get_robot, register_robot, robot_names
+from maopg.sim.robots.turtlebot import TurtlebotAdapter
 from maopg.tasks.box_pushing.arena import BOX_HEIGHT
 from maopg.tasks.box_pushing.config import Config
 from maopg.tasks.box_pushing.scene import BOXES
@@ -224,10 +228,21 @@ def test_every_ground_robot_composes_and_runs(robot: str) -> None:
     env.close()
 
 
-@pytest.mark.parametrize(("robot", "lacks"), [("fetch", "is not a GroundAdapter")])
-def test_a_robot_that_cannot_turn_on_the_spot_is_refused(robot: str, lacks: str) -> None:
-    with pytest.raises(ValueError, match=f"must be ground robots that turn on the spot.*{lacks}"):
-        env_of(turtlebot_robot=robot)
+def test_a_robot_that_cannot_turn_on_the_spot_is_refused_by_the_config(monkeypatch) -> None:
+    allowed = "allowed: diffbot, turtlebot, vehicle"
+    with pytest.raises(
+        ValueError, match=f"^env.turtlebot_robot: 'fetch' is an arm robot; {allowed}$"
+    ):
+        Config(turtlebot_robot="fetch")
+
+    class NoTurns(TurtlebotAdapter):
+        turn_to = GroundAdapter.turn_to
+
+    monkeypatch.setattr(robots, "_REGISTRY", dict(robots._REGISTRY))
+    register_robot("no_turns", get_robot("turtlebot").mjcf, NoTurns)
+    message = "'no_turns' cannot turn on the spot (NoTurns has no turn_to()); " + allowed
+    with pytest.raises(ValueError, match=f"^env.turtlebot_robot: {re.escape(message)}$"):
+        Config(turtlebot_robot="no_turns")
 
 
 # --------------------------------------------------------------------------- observations

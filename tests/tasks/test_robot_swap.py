@@ -70,7 +70,9 @@ def test_an_arm_with_its_own_gripper_body_takes_the_fetch_role(tmp_path, monkeyp
     result = run_episode(env, reference_policy("scripted", env))
     assert result.solved and result.ret == 259.0  # the Fetch's own scripted return
     env.close()
-    with pytest.raises(ValueError, match=r"must be an arm.*DiffbotAdapter is not an ArmAdapter"):
+    with pytest.raises(
+        ValueError, match=r"env.fetch_robot: 'diffbot' is a ground robot; allowed: "
+    ):
         make_env("tool_delivery", overrides={"fetch_robot": "diffbot"})
 
 

@@ -26,6 +26,7 @@ from maopg.sim.robots.base import (
 
 __all__ = [
     "ASSETS_DIR",
+    "ROLES",
     "ArmAdapter",
     "DroneAdapter",
     "GroundAdapter",
@@ -35,8 +36,18 @@ __all__ = [
     "RobotSpec",
     "get_robot",
     "register_robot",
+    "require_role",
     "robot_names",
+    "robots_of_role",
+    "role_of",
 ]
+
+ROLES: dict[str, type[RobotAdapter]] = {
+    "ground": GroundAdapter,
+    "drone": DroneAdapter,
+    "arm": ArmAdapter,
+}
+"""Each role a task gives a robot, and the adapter class a robot in it must have."""
 
 
 def _resolve(ref: Any) -> Any:
@@ -122,3 +133,49 @@ for _name, _cls, _consts in (
     register_robot(
         _name, ASSETS_DIR / "robots" / f"{_name}.xml", f"{_module}:{_cls}", f"{_module}:{_consts}"
     )
+
+
+def role_of(adapter: type[RobotAdapter]) -> str:
+    """The role an adapter class plays (the first of :data:`ROLES` it subclasses)."""
+    for role, base in ROLES.items():
+        if issubclass(adapter, base):
+            return role
+    bases = ", ".join(b.__name__ for b in ROLES.values())
+    raise ValueError(f"{adapter.__name__} is none of {bases}: it has no role to check")
+
+
+def robots_of_role(role: str) -> list[str]:
+    """The registered robots whose adapter plays ``role`` (one whose adapter does not import
+    is left out: it plays none)."""
+    names = []
+    for name in robot_names():
+        try:
+            adapter = _REGISTRY[name].adapter_class()
+        except (ImportError, AttributeError, TypeError, ValueError):
+            continue
+        if issubclass(adapter, ROLES[role]):
+            names.append(name)
+    return names
+
+
+def require_role(setting: str, name: str, role: str) -> None:
+    """Refuse, in one line naming ``setting`` and the robots allowed there, a robot ``name``
+    that is not registered or whose adapter does not play ``role``: a task's robot setting is
+    checked with its config, before any scene is compiled or anything written."""
+    if name not in _REGISTRY:
+        problem = f"unknown robot {name!r}"
+    else:
+        try:
+            adapter = _REGISTRY[name].adapter_class()
+        except (ImportError, AttributeError, TypeError, ValueError) as err:
+            raise ValueError(
+                f"{setting}: robot {name!r} has no adapter that loads ({err})"
+            ) from None
+        if issubclass(adapter, ROLES[role]):
+            return
+        try:
+            played = role_of(adapter)
+            problem = f"{name!r} is {'an' if played[0] in 'aeiou' else 'a'} {played} robot"
+        except ValueError:
+            problem = f"{name!r} plays no role ({adapter.__name__} is none of {', '.join(ROLES)})"
+    raise ValueError(f"{setting}: {problem}; allowed: {', '.join(robots_of_role(role))}")

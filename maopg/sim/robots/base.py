@@ -64,6 +64,17 @@ def _plain(value: Any) -> Any:
     return float(value)
 
 
+_COUNTS = {
+    mujoco.mjtObj.mjOBJ_BODY: "nbody",
+    mujoco.mjtObj.mjOBJ_JOINT: "njnt",
+    mujoco.mjtObj.mjOBJ_GEOM: "ngeom",
+    mujoco.mjtObj.mjOBJ_SITE: "nsite",
+    mujoco.mjtObj.mjOBJ_CAMERA: "ncam",
+    mujoco.mjtObj.mjOBJ_ACTUATOR: "nu",
+}
+"""The model's count of each kind of element an adapter looks up by name."""
+
+
 class RobotAdapter(ABC):
     """Binds one attached robot instance (its name prefix) inside a compiled scene."""
 
@@ -94,9 +105,14 @@ class RobotAdapter(ABC):
         self.data = data
         self.prefix = prefix
         self.constants = constants if constants is not None else self.Constants()
-        self.root_body_id = self.object_id(mujoco.mjtObj.mjOBJ_BODY, self.root_body)
+        adapter = type(self).__name__
+        self.root_body_id = self.object_id(
+            mujoco.mjtObj.mjOBJ_BODY, self.root_body, f"{adapter}.root_body"
+        )
         self.camera_name = self.name(self.camera)
-        self.camera_id = self.object_id(mujoco.mjtObj.mjOBJ_CAMERA, self.camera)
+        self.camera_id = self.object_id(
+            mujoco.mjtObj.mjOBJ_CAMERA, self.camera, f"{adapter}.camera"
+        )
         #: Seconds until the next ``apply()``; the scene sets it before every call.
         self.control_dt = 1.0
 
@@ -105,26 +121,39 @@ class RobotAdapter(ABC):
         """Full (prefixed) name of one of this robot's elements."""
         return f"{self.prefix}/{local}"
 
-    def object_id(self, objtype: mujoco.mjtObj, local: str) -> int:
-        """Id of a prefixed element; a missing name fails with the robot and element named."""
+    def object_id(self, objtype: mujoco.mjtObj, local: str, setting: str | None = None) -> int:
+        """Id of a prefixed element. A missing name fails naming the robot, the element, the
+        robot's elements of that kind (what is allowed) and ``setting``, where the adapter took
+        the name from (``"TurtlebotConstants.actuators"``)."""
         full = self.name(local)
         idx = mujoco.mj_name2id(self.model, objtype, full)
         if idx < 0:
             kind = objtype.name.removeprefix("mjOBJ_").lower()
+            names = ", ".join(self.local_names(objtype)) or "none"
+            where = setting or "the adapter's name for it"
             raise KeyError(
-                f"{type(self).__name__} for '{self.prefix}': the model has no {kind} '{full}' "
-                f"(does the robot MJCF name it '{local}'?)"
+                f"{type(self).__name__} for '{self.prefix}': the model has no {kind} '{full}'; "
+                f"the robot's {kind}s: {names}; set {where} to one of them"
             )
         return idx
 
-    def joint_qpos_adr(self, local: str) -> int:
-        return int(self.model.jnt_qposadr[self.object_id(mujoco.mjtObj.mjOBJ_JOINT, local)])
+    def local_names(self, objtype: mujoco.mjtObj) -> list[str]:
+        """The local names of this robot's elements of one kind (body, joint, actuator, ...)."""
+        count = getattr(self.model, _COUNTS[objtype])
+        head = self.name("")
+        names = (mujoco.mj_id2name(self.model, objtype, i) or "" for i in range(count))
+        return [n.removeprefix(head) for n in names if n.startswith(head)]
 
-    def joint_dof_adr(self, local: str) -> int:
-        return int(self.model.jnt_dofadr[self.object_id(mujoco.mjtObj.mjOBJ_JOINT, local)])
+    def joint_qpos_adr(self, local: str, setting: str | None = None) -> int:
+        joint = self.object_id(mujoco.mjtObj.mjOBJ_JOINT, local, setting)
+        return int(self.model.jnt_qposadr[joint])
 
-    def actuator_id(self, local: str) -> int:
-        return self.object_id(mujoco.mjtObj.mjOBJ_ACTUATOR, local)
+    def joint_dof_adr(self, local: str, setting: str | None = None) -> int:
+        joint = self.object_id(mujoco.mjtObj.mjOBJ_JOINT, local, setting)
+        return int(self.model.jnt_dofadr[joint])
+
+    def actuator_id(self, local: str, setting: str | None = None) -> int:
+        return self.object_id(mujoco.mjtObj.mjOBJ_ACTUATOR, local, setting)
 
     def set_position_gains(self, local: str, kp: float, kv: float) -> None:
         """Make an actuator a PD servo, force = kp * (ctrl - q) - kv * qvel.
@@ -311,12 +340,14 @@ class PlanarGroundAdapter(GroundAdapter):
         c = self.constants
         act_x, act_y, act_yaw = c.actuators
         joint_x, joint_y, joint_yaw = c.joints
-        self._ax, self._ay, self._ayaw = (self.actuator_id(n) for n in c.actuators)
+        names = type(c).__name__
+        actuators, joints = f"{names}.actuators", f"{names}.joints"
+        self._ax, self._ay, self._ayaw = (self.actuator_id(n, actuators) for n in c.actuators)
         self.set_velocity_gain(act_x, c.kv)
         self.set_velocity_gain(act_y, c.kv)
         self.set_position_gains(act_yaw, c.yaw_kp, c.yaw_kv)
-        self._q_yaw = self.joint_qpos_adr(joint_yaw)
-        self._v_x, self._v_y = self.joint_dof_adr(joint_x), self.joint_dof_adr(joint_y)
+        self._q_yaw = self.joint_qpos_adr(joint_yaw, joints)
+        self._v_x, self._v_y = (self.joint_dof_adr(j, joints) for j in (joint_x, joint_y))
         self._tau = float(model.body_subtreemass[self.root_body_id]) / c.kv
         # The slide axes live in the attachment frame (rotated by the spawn yaw): world->joint.
         quat = model.body_quat[self.root_body_id]

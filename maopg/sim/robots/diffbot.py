@@ -39,6 +39,8 @@ class DiffbotConstants:
     stop_tol: float = 0.04
     #: Footprint radius (m) for path planning.
     radius: float = 0.23
+    #: The wheels' actuators (left, right): their local names in the robot's MJCF.
+    wheel_actuators: tuple[str, str] = ("wheel_left", "wheel_right")
 
 
 class DiffbotAdapter(GroundAdapter):
@@ -52,11 +54,15 @@ class DiffbotAdapter(GroundAdapter):
     ) -> None:
         super().__init__(model, data, prefix, constants)
         c = self.constants
-        self._left = self.actuator_id("wheel_left")
-        self._right = self.actuator_id("wheel_right")
-        for local in ("wheel_left", "wheel_right"):
+        setting = f"{type(c).__name__}.wheel_actuators"
+        self._left, self._right = (self.actuator_id(n, setting) for n in c.wheel_actuators)
+        for local in c.wheel_actuators:
             self.set_velocity_gain(local, c.wheel_kv)
-        self._wheel_max = float(model.actuator_ctrlrange[self._left, 1])
+        # wheel speed limit (rad/s): the wheels' ctrlrange upper bound; without one, none
+        self._wheel_max = min(
+            float(model.actuator_ctrlrange[a, 1]) if model.actuator_ctrllimited[a] else math.inf
+            for a in (self._left, self._right)
+        )
         self.reset()
 
     def reset(self) -> None:

@@ -12,12 +12,20 @@ Control is a cascade run at ``control_hz`` (the scene calls :meth:`DroneAdapter.
    along z); collective thrust ``m * a . z_body``;
 4. attitude PD, tilt and yaw decoupled: angular accelerations ``k_p e_tilt - k_d w`` with the
    tilt error the rotation taking the body z axis onto the desired one, and a yaw PD; torque =
-   the body-frame inertia (MuJoCo's principal moments rotated by ``body_iquat``) times them,
-   the yaw torque capped;
+   the body-frame inertia times them, the yaw torque capped (below);
 5. mixing: the thrust + torque wrench is mapped to the rotor forces by the inverse of the
    matrix built from the rotor sites and actuator gears in the compiled model. A layout that
    cannot produce all four (say, rotors without drag torque: no yaw) is rejected when the
    adapter binds, naming what is missing, instead of silently ignoring those commands.
+
+Every gain is in units that do not depend on the airframe (speeds, accelerations, angular
+accelerations), and the adapter scales them by what it reads from the compiled model: the
+mass and the inertia of the root body's whole subtree (about its centre of mass, in the root
+body's frame), the rotor layout, gears and ``ctrlrange``. So a quadrotor of another size flies
+with the same constants. The one torque limit, the yaw cap, is the smaller of
+``max_yaw_accel`` times the yaw inertia and ``yaw_share`` of the yaw torque the rotors can add
+at hover without leaving their ``ctrlrange``: rotor drag torques are weak, and an uncapped yaw
+command saturates the rotors and steals the thrust differential that roll and pitch need.
 
 Everything inside ``apply()`` is plain float arithmetic: it runs ~50 times per 0.5 s tick.
 """
@@ -57,13 +65,88 @@ class DroneConstants:
     att_kd: float = 32.0
     yaw_kp: float = 20.0
     yaw_kd: float = 7.0
-    #: Yaw torque cap (N m): rotor drag torques are weak, so an uncapped yaw command saturates
-    #: the rotors and steals the thrust differential that roll and pitch need.
-    max_yaw_torque: float = 0.04
+    #: Yaw angular acceleration cap (rad/s^2), times the model's yaw inertia: the yaw torque
+    #: cap (module docstring); 0.04 N m on the shipped drone's 0.022 kg m^2.
+    max_yaw_accel: float = 0.04 / 0.022
+    #: The largest share of the rotors' yaw torque at hover the yaw command may take (the
+    #: rest of their range is left for roll and pitch).
+    yaw_share: float = 0.5
     #: Face the direction of travel when a target is farther than this horizontally (m).
     face_travel_min: float = 0.5
     #: Rotor actuator names in the MJCF, in mixer order.
     rotors: tuple[str, ...] = ("rotor_fl", "rotor_fr", "rotor_rl", "rotor_rr")
+
+
+def subtree_inertia(model: mujoco.MjModel, root: int) -> tuple[np.ndarray, np.ndarray]:
+    """Centre of mass (3,) and inertia (3, 3) about it of body ``root`` and every body below
+    it, in ``root``'s frame, with the joints at ``qpos0``.
+
+    MuJoCo stores each body's principal moments (``body_inertia``) in its inertia frame
+    (``body_ipos``, ``body_iquat``); a robot file with a full or rotated inertia has a rotated
+    frame, and one with rotors or a gimbal as child bodies spreads its mass over them, so the
+    moments are rotated into the root frame and summed with the parallel-axis terms.
+    """
+    n = model.nbody
+    frames: dict[int, tuple[np.ndarray, np.ndarray]] = {root: (np.zeros(3), np.eye(3))}
+    for b in range(root + 1, n):  # a parent's id is below its children's
+        parent = int(model.body_parentid[b])
+        if parent in frames:
+            pos, rot = frames[parent]
+            frames[b] = (pos + rot @ model.body_pos[b], rot @ _matrix(model.body_quat[b]))
+    masses = {b: float(model.body_mass[b]) for b in frames}
+    total = sum(masses.values())
+    centres = {b: pos + rot @ model.body_ipos[b] for b, (pos, rot) in frames.items()}
+    com = sum(masses[b] * centres[b] for b in frames) / total if total > 0 else np.zeros(3)
+    inertia = np.zeros((3, 3))
+    for b, (_, rot) in frames.items():
+        axes = rot @ _matrix(model.body_iquat[b])
+        d = centres[b] - com
+        inertia += axes @ np.diag(model.body_inertia[b]) @ axes.T
+        inertia += masses[b] * (float(d @ d) * np.eye(3) - np.outer(d, d))
+    return com, inertia
+
+
+def _matrix(quat: np.ndarray) -> np.ndarray:
+    rot = np.empty(9)
+    mujoco.mju_quat2Mat(rot, quat)
+    return rot.reshape(3, 3)
+
+
+def yaw_sign_advice(rotors: Sequence[str], arms: np.ndarray, yaw: np.ndarray) -> str:
+    """What to change in the rotors' drag torques (``gear[5]``) when they cannot yaw the drone.
+
+    ``arms`` (rotors, 3) are the rotor positions from the centre of mass, ``yaw`` each rotor's
+    yaw torque per newton. A quadrotor yaws by the drag torques of propellers spinning in
+    opposite directions: diagonal rotors must share a sign and adjacent ones have opposite
+    signs. Any other pattern is a copy of the roll or pitch column (adjacent rotors share it)
+    and leaves one wrench axis out.
+    """
+    scale = np.abs(yaw).max(initial=0.0)
+    if scale < 1e-9:
+        return (
+            "a quadrotor yaws by the rotors' drag torques: give each rotor actuator a gear[5] "
+            "(N m per N), the same sign on diagonal rotors and opposite signs on adjacent ones"
+        )
+    signs = np.sign(np.where(np.abs(yaw) > 1e-3 * scale, yaw, 0.0))
+    if len(rotors) != 4 or not signs.all():
+        return "check the rotor positions and the sign and size of each rotor's gear[5]"
+    xy = arms[:, :2]
+    first = 0
+    diagonal = int(np.argmax(np.linalg.norm(xy - xy[first], axis=1)))
+    others = [k for k in range(4) if k not in (first, diagonal)]
+    if signs[first] == signs[diagonal] and signs[others[0]] == signs[others[1]] != signs[first]:
+        return "check the rotor positions and gear[2] (the thrust along the body z axis)"
+    now = ", ".join(f"{r} {y:+.3g}" for r, y in zip(rotors, yaw, strict=True))
+    want = [signs[first]] * 4
+    for k in others:
+        want[k] = -signs[first]
+    fixed = ", ".join(f"{r} {'+' if w > 0 else '-'}" for r, w in zip(rotors, want, strict=True))
+    return (
+        f"diagonal rotors ({rotors[first]}/{rotors[diagonal]}, {rotors[others[0]]}/"
+        f"{rotors[others[1]]}) spin the same way and adjacent ones opposite ways, so the sign of "
+        f"the yaw torque gear[5] must match on a diagonal and differ between the diagonals: now "
+        f"{now}; make the signs {fixed}"
+    )
 
 
 class DroneAdapter(base.DroneAdapter):
@@ -80,53 +163,90 @@ class DroneAdapter(base.DroneAdapter):
         super().__init__(model, data, prefix, constants)
         c = self.constants
         root = self.root_body_id
-        self._mass = float(model.body_subtreemass[root])
-        self._inertia = tuple(tuple(float(v) for v in row) for row in self.inertia)
-        self._gravity = -float(model.opt.gravity[2])
-        self._act = [self.actuator_id(n) for n in c.rotors]
-        self._ctrl_lo = [float(model.actuator_ctrlrange[a, 0]) for a in self._act]
-        self._ctrl_hi = [float(model.actuator_ctrlrange[a, 1]) for a in self._act]
-        self._mixer = [tuple(float(v) for v in row) for row in self._mixer_matrix()]
-        dof = int(model.body_dofadr[root])
         if model.body_dofnum[root] != 6:
             raise ValueError(f"drone '{prefix}': root body must have a free joint")
-        self._vel = dof  # qvel[dof:dof+3]: world linear velocity; [dof+3:dof+6]: body angular
+        self._mass = float(model.body_subtreemass[root])
+        com, inertia = subtree_inertia(model, root)
+        self._com = com
+        self._inertia = tuple(tuple(float(v) for v in row) for row in inertia)
+        self._gravity = -float(model.opt.gravity[2])
+        self._act = [self.actuator_id(n, f"{type(c).__name__}.rotors") for n in c.rotors]
+        # an actuator without a ctrlrange is unlimited (MuJoCo leaves the range at 0 0)
+        ranges = [
+            model.actuator_ctrlrange[a].tolist()
+            if model.actuator_ctrllimited[a]
+            else [-math.inf, math.inf]
+            for a in self._act
+        ]
+        self._ctrl_lo = [lo for lo, _ in ranges]
+        self._ctrl_hi = [hi for _, hi in ranges]
+        self._mixer = [tuple(float(v) for v in row) for row in self._mixer_matrix()]
+        #: The two bounds of the yaw torque cap (N m), by the constant that sets each
+        #: (module docstring); the cap is the smaller.
+        self.yaw_torque_bounds = self._yaw_torque_bounds()
+        self.yaw_torque_cap = min(self.yaw_torque_bounds.values())
+        self._vel = int(model.body_dofadr[root])  # qvel[+0:+3]: world linear; [+3:+6]: body angular
         self.reset()
 
     @property
     def inertia(self) -> np.ndarray:
-        """(3, 3) inertia of the root body about its centre of mass, in the body frame.
+        """(3, 3) inertia of the root body's subtree about its centre of mass, in the root
+        body's frame (:func:`subtree_inertia`): what the attitude loop scales by."""
+        return np.array(self._inertia)
 
-        MuJoCo stores principal moments (``body_inertia``) in the inertia frame ``body_iquat``;
-        a robot file with a full or rotated inertia has a rotated frame, and the attitude loop
-        needs ``R diag(I) R^T``.
-        """
-        root = self.root_body_id
-        rot = np.empty(9)
-        mujoco.mju_quat2Mat(rot, self.model.body_iquat[root])
-        rot = rot.reshape(3, 3)
-        return rot @ np.diag(self.model.body_inertia[root]) @ rot.T
+    @property
+    def rotor_authority(self) -> float:
+        """The yaw torque (N m) the rotors can add at hover, either way, before one of them
+        reaches the end of its ``ctrlrange`` (inf for rotors without one)."""
+        hover = self._mass * self._gravity
+        authority = math.inf
+        for k, row in enumerate(self._mixer):
+            force, per_torque = row[0] * hover, abs(row[3])
+            room = min(self._ctrl_hi[k] - force, force - self._ctrl_lo[k])
+            if per_torque > 0.0:
+                authority = min(authority, room / per_torque)
+        return authority
+
+    def _yaw_torque_bounds(self) -> dict[str, float]:
+        """``max_yaw_accel * I_zz`` and ``yaw_share * rotor_authority``; ``ValueError`` when
+        the rotors cannot even hover the drone within their ``ctrlrange``."""
+        c = self.constants
+        hover = self._mass * self._gravity
+        for k, (name, row) in enumerate(zip(c.rotors, self._mixer, strict=True)):
+            force = row[0] * hover
+            if not self._ctrl_lo[k] <= force <= self._ctrl_hi[k]:
+                raise ValueError(
+                    f"{type(self).__name__} for '{self.prefix}': rotor {name} must push "
+                    f"{force:.3g} N to hover the drone's {self._mass:.3g} kg, outside its "
+                    f"ctrlrange [{self._ctrl_lo[k]:g}, {self._ctrl_hi[k]:g}]: raise the rotors' "
+                    "ctrlrange upper bound (or lighten the model)"
+                )
+        return {
+            "max_yaw_accel": c.max_yaw_accel * self._inertia[2][2],
+            "yaw_share": c.yaw_share * self.rotor_authority,
+        }
 
     def _mixer_matrix(self) -> np.ndarray:
-        """Inverse of rotor force -> body wrench (thrust z, torque x, y, z), from the model.
+        """Inverse of rotor force -> body wrench (thrust z, torque x, y, z about the centre of
+        mass), from the model.
 
         Raises ``ValueError`` when the rotors cannot produce every wrench axis: ``pinv`` would
         return a mixer that silently maps that axis's commands to nothing.
         """
         model = self.model
         wrench = np.zeros((4, len(self._act)))
+        arms = np.zeros((len(self._act), 3))
         for j, a in enumerate(self._act):
             if model.actuator_trntype[a] != mujoco.mjtTrn.mjTRN_SITE:
                 raise ValueError(f"drone '{self.prefix}': rotor actuators must act on sites")
             site = model.actuator_trnid[a, 0]
             if model.site_bodyid[site] != self.root_body_id:
                 raise ValueError(f"drone '{self.prefix}': rotor sites must be on the root body")
-            rot = np.empty(9)
-            mujoco.mju_quat2Mat(rot, model.site_quat[site])
-            rot = rot.reshape(3, 3)
+            rot = _matrix(model.site_quat[site])
             gear = model.actuator_gear[a]
             force = rot @ gear[:3]
-            torque = np.cross(model.site_pos[site] - model.body_ipos[self.root_body_id], force)
+            arms[j] = model.site_pos[site] - self._com
+            torque = np.cross(arms[j], force)
             torque += rot @ gear[3:]
             wrench[:, j] = (force[2], torque[0], torque[1], torque[2])
         mixer = np.linalg.pinv(wrench)
@@ -140,9 +260,8 @@ class DroneAdapter(base.DroneAdapter):
             raise ValueError(
                 f"{type(self).__name__} for '{self.prefix}': rotors "
                 f"{', '.join(self.constants.rotors)} cannot produce {' or '.join(missing)} (their "
-                f"wrench matrix has rank {np.linalg.matrix_rank(wrench)} of 4); a quadrotor yaws "
-                "by the rotors' drag torques: give each rotor actuator a gear[5] (N m per N) "
-                "with alternating signs"
+                f"wrench matrix has rank {np.linalg.matrix_rank(wrench)} of 4); "
+                + yaw_sign_advice(self.constants.rotors, arms, wrench[3])
             )
         return mixer
 
@@ -236,7 +355,8 @@ class DroneAdapter(base.DroneAdapter):
         tx = jxx * alx + jxy * aly + jxz * alz
         ty = jyx * alx + jyy * aly + jyz * alz
         tz = jzx * alx + jzy * aly + jzz * alz
-        tz = max(-c.max_yaw_torque, min(c.max_yaw_torque, tz))
+        cap = self.yaw_torque_cap
+        tz = max(-cap, min(cap, tz))
         thrust = self._mass * (ax * b2[0] + ay * b2[1] + az * b2[2])
 
         # 5. mixer: rotor forces from the wrench, clipped to the actuator ranges

@@ -3,9 +3,12 @@ overrides without importing the simulation."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import ClassVar
 
 from maopg.settings import setting
+from maopg.sim.robots import GroundAdapter, get_robot, robots_of_role
 from maopg.tasks.base import SceneTaskConfig
 from maopg.tasks.box_pushing_grid.config import SIZES
 from maopg.tasks.box_pushing_grid.config import Config as GridConfig
@@ -27,6 +30,7 @@ class Config(SceneTaskConfig):
     11 on 6x6); a timeout is a truncation, never a termination."""
     tick_seconds: float = 1.0
     """One tick moves a Turtlebot one cell (0.6 m at its 0.6 m/s), as a grid step does."""
+    ROBOT_ROLES: ClassVar[Mapping[str, str]] = {"turtlebot_robot": "ground"}
     timestep: float = 0.01
     """10 ms: over random episodes a box and what touches it overlap at most 7.5 mm (at 20 ms:
     1.7 cm; two robots meeting head-on 1.4 cm, at 20 ms 3.3 cm), one robot holds a big box 15%
@@ -63,3 +67,19 @@ class Config(SceneTaskConfig):
     """A turn that has not reached its heading ends after this many ticks (a robot in the way)."""
     nav_slack_ticks: int = setting(4, ge=0)
     """A GoTo gives up this many ticks after its route's full-speed travel time."""
+
+    def validate(self) -> None:
+        """The fields' own bounds and a ground robot (``ROBOT_ROLES``), then one that turns on
+        the spot: Box Pushing's turns ask it to."""
+        super().validate()
+        adapter = get_robot(self.turtlebot_robot).adapter_class()
+        if adapter.turn_to is GroundAdapter.turn_to:
+            allowed = [
+                name
+                for name in robots_of_role("ground")
+                if get_robot(name).adapter_class().turn_to is not GroundAdapter.turn_to
+            ]
+            raise ValueError(
+                f"env.turtlebot_robot: {self.turtlebot_robot!r} cannot turn on the spot "
+                f"({adapter.__name__} has no turn_to()); allowed: {', '.join(allowed)}"
+            )

@@ -72,7 +72,6 @@ import numpy as np
 
 from maopg.options.base import Option
 from maopg.sim.planning import Route
-from maopg.sim.robots import GroundAdapter, get_robot
 from maopg.sim.robots.base import wrap_angle
 from maopg.tasks.base import SceneTask
 from maopg.tasks.box_pushing.arena import Arena, heading_of, yaw_of
@@ -131,19 +130,6 @@ class BoxPushing(SceneTask):
 
     def __init__(self, config: Config | None = None) -> None:
         self.config = config = config or Config()
-        adapter = get_robot(config.turtlebot_robot).adapter_class()
-        lacks = (
-            f"is not a {GroundAdapter.__name__}"
-            if not issubclass(adapter, GroundAdapter)
-            else "has no turn_to()"
-            if adapter.turn_to is GroundAdapter.turn_to
-            else None
-        )
-        if lacks:
-            raise ValueError(
-                f"turtlebot_robot={config.turtlebot_robot!r}: Box Pushing's robots must be ground "
-                f"robots that turn on the spot, and {adapter.__name__} {lacks}"
-            )
         self.arena = Arena.of(config)
         self.tick_seconds = config.tick_seconds
         self.scene = build_scene(config, self.arena)

@@ -3,7 +3,9 @@ validates overrides without importing the simulation."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import ClassVar
 
 from maopg.settings import setting
 from maopg.tasks.base import SceneTaskConfig
@@ -25,6 +27,7 @@ class Config(SceneTaskConfig):
     max_ticks: int = 150
     tick_seconds: float = 1.0
     timestep: float = 0.02  # stable for the servos and welds; 50 physics steps per tick
+    ROBOT_ROLES: ClassVar[Mapping[str, str]] = {"turtlebot_robot": "ground", "fetch_robot": "arm"}
     turtlebot_robot: str = "turtlebot"
     fetch_robot: str = "fetch"
     """An arm (``ArmAdapter``): it stands at ``fetch_base`` and must reach the shelf slots, the

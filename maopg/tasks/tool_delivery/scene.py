@@ -16,7 +16,7 @@ import numpy as np
 
 from maopg.sim.assets import ASSETS_DIR
 from maopg.sim.props import arena_floor
-from maopg.sim.robots import ArmAdapter, get_robot
+from maopg.sim.robots import get_robot
 from maopg.sim.scene import Scene, SceneBuilder
 from maopg.tasks.tool_delivery.config import Config
 from maopg.tasks.tool_delivery.constants import BASKET, NUM_TOOLS, TOOL
@@ -39,13 +39,7 @@ empty, since the tilted view's footprint grows faster than the distance."""
 
 def gripper_body(config: Config, fetch: str) -> str:
     """The scene name of the body the arm welds a grasped tool to (its adapter says which)."""
-    spec = get_robot(config.fetch_robot)
-    arm = spec.adapter_class()
-    if not issubclass(arm, ArmAdapter):
-        raise ValueError(
-            f"fetch_robot={spec.name!r}: Tool Delivery's Fetch must be an arm, and "
-            f"{arm.__name__} is not an ArmAdapter"
-        )
+    arm = get_robot(config.fetch_robot).adapter_class()  # an ArmAdapter: the config checks it
     return f"{fetch}/{arm.gripper}"
 
 

@@ -3,7 +3,9 @@ validates overrides without importing the simulation."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import ClassVar
 
 from maopg.settings import setting
 from maopg.tasks.base import SceneTaskConfig
@@ -26,6 +28,7 @@ class Config(SceneTaskConfig):
     """Drones (agents ``drone``, or ``drone0``.. when several); at least 1."""
     jars: int = setting(3, ge=1)
     """Jars to keep filled; at least 1."""
+    ROBOT_ROLES: ClassVar[Mapping[str, str]] = {"vehicle_robot": "ground", "drone_robot": "drone"}
     vehicle_robot: str = "vehicle"
     drone_robot: str = "drone"
     vehicle_start: tuple[float, float] | None = None
