@@ -119,10 +119,10 @@ def test_the_environment_variable_and_a_file_path_work_like_import(tmp_path):
 
 
 def test_a_plugin_file_imports_the_modules_beside_it_in_every_process(tmp_path, monkeypatch):
-    """``--import plug/task.py`` whose task is in a module beside it: the training, then its
-    ``--resume`` and the evaluation of its checkpoint, each a fresh process in another folder
-    than the plugin's, import that module; the evaluation's JSON says what produced the result:
-    the task and its settings, the method and checkpoint, the plugin's file and its hash."""
+    """``--import plug/task.py`` whose task is in a module beside it: the training (here), then
+    its ``--resume`` and the evaluation of its checkpoint (each a fresh process, in another
+    folder than the plugin's) import that module; the evaluation's JSON says what produced the
+    result: the task and its settings, the method and checkpoint, the plugin's file and hash."""
     from maopg.experiment.cli.train_cli import main as train_main
 
     plug = tmp_path / "plug"
