@@ -31,10 +31,10 @@ import torch
 from maopg.env.vector import SeededVectorEnv
 from maopg.experiment.run.config import TrainConfig
 from maopg.experiment.run.directory import CONFIG, FINAL
+from maopg.experiment.run.migration import read_checkpoint
 from maopg.experiment.run.sysinfo import markdown
 from maopg.experiment.studies.runs import RETURN, final, load_run
 from maopg.experiment.training.trainer import build_learner
-from maopg.learner import load_checkpoint
 
 
 def curve_tail(run_dir: Path) -> tuple[float, float]:
@@ -47,7 +47,7 @@ def frozen_returns(run_dir: Path, iterations: int, seed: int) -> list[float]:
     """Episode returns of ``iterations`` batches collected by the run's final policy, frozen."""
     config = TrainConfig.load(run_dir / CONFIG).resolved()
     torch.set_num_threads(config.torch_threads or 1)
-    state = load_checkpoint(run_dir / FINAL, required=("policy", "critic"))
+    state = read_checkpoint(run_dir / FINAL, required=("policy", "critic"))
     envs = SeededVectorEnv(config.env(), num_envs=config.num_envs, seed=seed, backend="local")
     try:
         sample_gen = torch.Generator().manual_seed(seed)

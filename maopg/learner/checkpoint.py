@@ -17,8 +17,17 @@ checkpoint is the same file whichever device trained it: one written on a GPU op
 without one, and the learner moves what it loads onto its own device.
 
 torch does not verify the zip's CRCs, so flipped bits inside tensor data would load silently as
-other weights: every checkpoint also stores a SHA-256 of its tensors (:data:`CHECKSUM_KEY`),
-which loading verifies. Checkpoints written before the checksum existed load unchecked.
+other weights, and an edited entry (a config whose method was relabelled) as another run's:
+every checkpoint also stores a SHA-256 of all its other entries, tensors and plain values
+(:data:`CHECKSUM_KEY`, :func:`state_digest`), which loading verifies, and a checkpoint without
+it is refused. Checkpoints of earlier releases carry a checksum of their tensors alone
+(:data:`TENSORS_CHECKSUM_KEY`) or, the earliest, none; the caller that knows their format says
+which it accepts (``accepts`` of :func:`load_checkpoint`;
+:func:`maopg.experiment.run.migration.read_checkpoint` from the checkpoint's schema).
+
+A write the machine refuses — a full disk, a read-only file system — is an ``OSError`` naming
+the checkpoint (not its temporary) and saying that the one before it is intact: the temporary
+goes, the previous file was never touched.
 """
 
 from __future__ import annotations
@@ -31,7 +40,7 @@ import random
 import re
 import tempfile
 import zipfile
-from collections.abc import Iterator
+from collections.abc import Callable, Collection, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -39,8 +48,10 @@ from typing import Any
 import numpy as np
 import torch
 
-CHECKSUM_KEY = "tensors_sha256"
-"""The entry holding :func:`tensors_digest` of the rest of the checkpoint (a plain string)."""
+CHECKSUM_KEY = "sha256"
+"""The entry holding :func:`state_digest` of the rest of the checkpoint (a plain string)."""
+TENSORS_CHECKSUM_KEY = "tensors_sha256"
+"""Where checkpoints of earlier releases hold :func:`tensors_digest` of their tensors alone."""
 
 
 class CheckpointError(RuntimeError):
@@ -71,51 +82,103 @@ def on_cpu(value: Any) -> Any:
     return value
 
 
-def _tensors(value: Any, path: str = "") -> Iterator[tuple[str, torch.Tensor]]:
-    """Every tensor in nested dicts / lists / tuples, with a path naming where it sits."""
-    if isinstance(value, torch.Tensor):
-        yield path, value
-    elif isinstance(value, dict):
+def _nodes(value: Any, path: str = "") -> Iterator[tuple[str, Any]]:
+    """Every node of nested dicts / lists / tuples — the containers themselves, then what they
+    hold: tensors and plain values — with a path naming where it sits."""
+    yield path, value
+    if isinstance(value, dict):
         for key, item in value.items():
-            yield from _tensors(item, f"{path}/{key!r}")
+            yield from _nodes(item, f"{path}/{key!r}")
     elif isinstance(value, list | tuple):
         for index, item in enumerate(value):
-            yield from _tensors(item, f"{path}/{index}")
+            yield from _nodes(item, f"{path}/{index}")
+
+
+def _tensors(value: Any) -> list[tuple[str, torch.Tensor]]:
+    """Every tensor in nested dicts / lists / tuples, with its path."""
+    return [(path, node) for path, node in _nodes(value) if isinstance(node, torch.Tensor)]
+
+
+def _add_tensor(digest: Any, name: str, tensor: torch.Tensor) -> None:
+    digest.update(f"{name} {tensor.dtype} {tuple(tensor.shape)}\n".encode())
+    flat = tensor.detach().cpu().reshape(-1)
+    if flat.stride(0) != 1:  # a tensor of one element (or none) may have a stride of 0
+        flat = torch.empty(flat.shape, dtype=flat.dtype).copy_(flat)
+    digest.update(flat.view(torch.uint8).numpy())
 
 
 def tensors_digest(state: dict[str, Any]) -> str:
     """SHA-256 over every tensor of ``state``: its path, dtype, shape and bytes, in path order
-    (so the digest does not depend on the order in which the dicts were filled)."""
+    (so the digest does not depend on the order in which the dicts were filled). The checksum
+    of earlier releases' checkpoints (:data:`TENSORS_CHECKSUM_KEY`)."""
     digest = hashlib.sha256()
     for name, tensor in sorted(_tensors(state), key=lambda item: item[0]):
-        digest.update(f"{name} {tensor.dtype} {tuple(tensor.shape)}\n".encode())
-        flat = tensor.detach().cpu().reshape(-1)
-        if flat.stride(0) != 1:  # a tensor of one element (or none) may have a stride of 0
-            flat = torch.empty(flat.shape, dtype=flat.dtype).copy_(flat)
-        digest.update(flat.view(torch.uint8).numpy())
+        _add_tensor(digest, name, tensor)
     return digest.hexdigest()
+
+
+def state_digest(state: dict[str, Any]) -> str:
+    """SHA-256 over everything in ``state``, in path order: each tensor as
+    :func:`tensors_digest` hashes it, each plain value as its ``repr`` (its type shows: ``1``,
+    ``1.0``, ``'1'`` and ``True`` differ, and floats round-trip exactly), each container by its
+    kind and size (a list is no tuple, an emptied dict no missing one; an ``OrderedDict`` is a
+    dict)."""
+    digest = hashlib.sha256()
+    for name, node in sorted(_nodes(state), key=lambda item: item[0]):
+        if isinstance(node, torch.Tensor):
+            _add_tensor(digest, name, node)
+        elif isinstance(node, dict | list | tuple):
+            kind = next(k for k in (dict, list, tuple) if isinstance(node, k)).__name__
+            digest.update(f"{name} {kind} of {len(node)}\n".encode())
+        else:
+            digest.update(f"{name} = {node!r}\n".encode())
+    return digest.hexdigest()
+
+
+DIGESTS: dict[str, Callable[[dict[str, Any]], str]] = {
+    CHECKSUM_KEY: state_digest,
+    TENSORS_CHECKSUM_KEY: tensors_digest,
+}
+"""The digest each checksum entry holds."""
 
 
 def _temporary_prefix(path: Path) -> str:
     return f".{path.name}."
 
 
+def _refused(err: OSError, path: Path) -> OSError:
+    """The machine's refusal ``err`` of a write of ``path`` (a full disk, a read-only file
+    system), as an error of its kind naming ``path`` and saying that the file is as it was."""
+    if err.errno is None:
+        return err
+    kept = f" (the {path.name} there before is intact)" if path.exists() else ""
+    return type(err)(err.errno, f"{err.strerror}{kept}", str(path))
+
+
 def save_checkpoint(path: str | os.PathLike[str], state: dict[str, Any]) -> Path:
-    """Write ``state`` and the checksum of its tensors to ``path`` atomically (temporary file +
-    ``os.replace``), its tensors on the CPU (:func:`on_cpu`)."""
+    """Write ``state`` and its checksum (:func:`state_digest`) to ``path`` atomically
+    (temporary file + ``os.replace``), its tensors on the CPU (:func:`on_cpu`). A write the
+    machine refuses is an ``OSError`` naming ``path`` (module docstring)."""
     state = on_cpu(state)
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    stored = {**state, CHECKSUM_KEY: tensors_digest(state)}
-    fd, tmp_name = tempfile.mkstemp(prefix=_temporary_prefix(path), suffix=".tmp", dir=path.parent)
+    stored = {**state, CHECKSUM_KEY: state_digest(state)}
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp_name = tempfile.mkstemp(
+            prefix=_temporary_prefix(path), suffix=".tmp", dir=path.parent
+        )
+    except OSError as err:
+        raise _refused(err, path) from err
     try:
         with os.fdopen(fd, "wb") as handle:
             torch.save(stored, handle)
             handle.flush()
             os.fsync(handle.fileno())
         os.replace(tmp_name, path)
-    except BaseException:
+    except BaseException as err:
         Path(tmp_name).unlink(missing_ok=True)
+        if isinstance(err, OSError):
+            raise _refused(err, path) from err
         raise
     return path
 
@@ -134,9 +197,25 @@ def remove_stale_temporaries(path: str | os.PathLike[str]) -> list[Path]:
     return stale
 
 
-def load_checkpoint(path: str | os.PathLike[str], required: tuple[str, ...] = ()) -> dict:
+def _only_ours(state: dict[str, Any]) -> tuple[str | None, ...]:
+    return (CHECKSUM_KEY,)
+
+
+def load_checkpoint(
+    path: str | os.PathLike[str],
+    required: tuple[str, ...] = (),
+    *,
+    accepts: Callable[[dict[str, Any]], Collection[str | None]] = _only_ours,
+) -> dict:
     """Read a checkpoint written by :func:`save_checkpoint` and verify its checksum (the entry
-    is removed from the returned state); errors name the file."""
+    is removed from the returned state); errors name the file.
+
+    ``accepts(state)`` says which checksum entries a checkpoint holding ``state`` may carry —
+    :data:`TENSORS_CHECKSUM_KEY` and ``None`` (none at all) for the formats of earlier releases,
+    which only their caller knows (:func:`maopg.experiment.run.migration.read_checkpoint`); by
+    default :data:`CHECKSUM_KEY` alone, so that a checkpoint whose checksum was deleted is
+    refused rather than loaded unverified.
+    """
     path = Path(path)
     if not path.is_file():
         raise CheckpointError(f"checkpoint {path} does not exist")
@@ -146,10 +225,19 @@ def load_checkpoint(path: str | os.PathLike[str], required: tuple[str, ...] = ()
         raise CheckpointError(f"checkpoint {path} is corrupt or unreadable: {err}") from err
     if not isinstance(state, dict):
         raise CheckpointError(f"checkpoint {path} holds a {type(state).__name__}, not a dict")
-    checksum = state.pop(CHECKSUM_KEY, None)
-    if checksum is not None and checksum != tensors_digest(state):
+    checksums = {key: state.pop(key) for key in DIGESTS if key in state}
+    kind = next(iter(checksums), None)  # the checksum over everything first
+    if kind not in accepts(state):
+        has = "none" if kind is None else f"only {kind!r}, over its tensors alone"
         raise CheckpointError(
-            f"checkpoint {path} is corrupt: its tensors do not match the checksum saved with them"
+            f"checkpoint {path} lacks the checksum its format carries ({CHECKSUM_KEY!r}; it has "
+            f"{has}), so what it holds cannot be verified: was it edited?"
+        )
+    if kind is not None and checksums[kind] != DIGESTS[kind](state):
+        what = "tensors" if kind == TENSORS_CHECKSUM_KEY else "entries"
+        raise CheckpointError(
+            f"checkpoint {path} is corrupt or was edited: its {what} do not match the checksum "
+            "saved with them"
         )
     missing = [key for key in required if key not in state]
     if missing:

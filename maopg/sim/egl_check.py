@@ -19,7 +19,7 @@ import importlib.util
 import os
 import sys
 
-import maopg  # noqa: F401  (sets MUJOCO_GL=egl before mujoco is imported)
+import maopg  # sets MUJOCO_GL=egl before mujoco is imported; shadowed_package reads it
 
 APT_LINE = "sudo apt-get update && sudo apt-get install -y libegl1 libegl-mesa0 libgl1-mesa-dri"
 
@@ -38,10 +38,34 @@ def _backend() -> str:
     return os.environ.get("MUJOCO_GL", "").lower().strip()
 
 
+def shadowed_package() -> str | None:
+    """Why ``maopg`` is not this package, or ``None``.
+
+    A folder named ``maopg`` without ``__init__.py`` where Python looks first — a user's empty
+    ``maopg/``, or the checkout itself seen from the folder above it — is imported as a
+    namespace package in its place whenever the real one is found after the path's entries,
+    as an editable install finds it: the modules below then load from the real package, but
+    its ``__init__``, which sets ``MUJOCO_GL``, never runs. The rendering setup then looks
+    broken (``MUJOCO_GL=None``), so :func:`import_problem`, where that failure is reported,
+    names this cause first.
+    """
+    if getattr(maopg, "__file__", None) is not None:
+        return None
+    folders = ", ".join(str(folder) for folder in getattr(maopg, "__path__", ()))
+    return (
+        f"`maopg` here is the folder {folders} (a namespace package without __init__.py), "
+        "not the installed package; rename the folder or run from elsewhere"
+    )
+
+
 def import_problem() -> str | None:
-    """Why ``import mujoco`` would fail under this ``MUJOCO_GL`` (a value MuJoCo does not know,
-    ``osmesa`` without libOSMesa: PyOpenGL then fails inside MuJoCo's import, ``glfw`` without
-    its Python package), or ``None``."""
+    """Why ``import mujoco`` would fail under this ``MUJOCO_GL`` (``maopg`` shadowed by a
+    folder of that name: :func:`shadowed_package`; a value MuJoCo does not know, ``osmesa``
+    without libOSMesa: PyOpenGL then fails inside MuJoCo's import, ``glfw`` without its Python
+    package), or ``None``."""
+    shadowed = shadowed_package()
+    if shadowed is not None:
+        return shadowed
     gl = _backend()
     if gl not in GL_BACKENDS:
         return f"MUJOCO_GL={gl!r}: maopg renders with MUJOCO_GL one of {list(GL_BACKENDS)}"

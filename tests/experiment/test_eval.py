@@ -381,6 +381,30 @@ def test_evaluate_a_checkpoint(trained_run, tmp_path, capsys):
     assert capsys.readouterr().err == ""
     saved = json.loads(out.read_text())
     assert saved["episodes"] == 2 and len(saved["per_episode"]["returns"]) == 2
+    assert saved["source"]["policy"] == {
+        "method": "async",
+        "seed": 0,
+        "checkpoint": str((trained_run / FINAL).resolve()),
+        "samples": trained.samples,
+        "greedy": True,
+    }
+    assert saved["source"]["env"]["max_ticks"] == 40  # the run's task settings (TINY)
+
+
+def test_the_json_of_an_evaluation_records_what_produced_it(tmp_path):
+    """The task and its settings as the environment was built — the robot swapped in, every
+    default filled in — and who acted: a result can be traced to the robot that produced it."""
+    out = tmp_path / "result.json"
+    reference = ["evaluate", "--reference", "random", "--task", "tool_delivery"]
+    settings = ["env.turtlebot_robot=diffbot", "env.max_ticks=20"]
+    assert (
+        main([*reference, *settings, "--episodes", "1", "--no-progress", "--json", str(out)]) == 0
+    )
+    source = json.loads(out.read_text())["source"]
+    assert (source["task"], source["strategy"]) == ("tool_delivery", "continue")
+    assert source["env"]["turtlebot_robot"] == "diffbot" and source["env"]["max_ticks"] == 20
+    assert source["env"]["fetch_robot"] == "fetch"  # a default, recorded too
+    assert source["policy"] == {"reference": "random"} and isinstance(source["plugins"], list)
 
 
 def test_evaluate_a_mac_dqn_checkpoint_made_by_the_grid(tmp_path, capsys):

@@ -9,6 +9,7 @@ import json
 from pathlib import Path
 
 import pytest
+import torch
 
 from maopg.experiment.cli.train_cli import main
 from maopg.experiment.evaluation.loading import load_trained
@@ -22,9 +23,16 @@ from maopg.experiment.run.migration import (
     SCHEMA_KEY,
     migrate_checkpoint,
     migrate_config,
+    read_checkpoint,
 )
 from maopg.learner import CheckpointError, MacDQNConfig, PPOConfig, load_checkpoint
-from maopg.learner.checkpoint import save_checkpoint
+from maopg.learner.checkpoint import (
+    CHECKSUM_KEY,
+    TENSORS_CHECKSUM_KEY,
+    save_checkpoint,
+    state_digest,
+    tensors_digest,
+)
 
 RESULTS = Path(__file__).resolve().parents[2] / "results"
 TINY = ["--task", "tool_delivery", "batch_ticks=60", "num_envs=2", "checkpoint_every=1"]
@@ -102,3 +110,26 @@ def test_a_schema_1_checkpoint_resumes_bit_for_bit(tmp_path):
     assert _rows(old) == _rows(whole)
     with pytest.raises(CheckpointError, match="lacks the entries"):
         load_trained(save_checkpoint(tmp_path / "bare.pt", {"iteration": 1}))
+
+
+def test_the_checksum_a_checkpoint_must_carry_follows_from_its_schema(tmp_path):
+    """From schema 4 the one over every entry; schemas 2 and 3 checksummed their tensors
+    alone; only schema 1, whose earliest checkpoints had none, loads without one."""
+    path = tmp_path / "ck.pt"
+    entries = {"iteration": 1, "w": torch.ones(3)}
+    for schema, checksum, loads in [
+        (CHECKPOINT_SCHEMA, CHECKSUM_KEY, True),
+        (CHECKPOINT_SCHEMA, TENSORS_CHECKSUM_KEY, False),
+        (3, TENSORS_CHECKSUM_KEY, True),
+        (2, None, False),
+        (1, TENSORS_CHECKSUM_KEY, True),
+        (1, None, True),
+    ]:
+        state = {**entries, **({SCHEMA_KEY: schema} if schema > 1 else {})}
+        digests = {CHECKSUM_KEY: state_digest, TENSORS_CHECKSUM_KEY: tensors_digest}
+        torch.save({**state, **({checksum: digests[checksum](state)} if checksum else {})}, path)
+        if loads:
+            assert read_checkpoint(path)["iteration"] == 1
+        else:
+            with pytest.raises(CheckpointError, match=f"checkpoint {path} lacks the checksum"):
+                read_checkpoint(path)

@@ -4,6 +4,7 @@ fresh process as a user would run it. The task is ``examples/berries.py`` (no Mu
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import subprocess
@@ -115,6 +116,53 @@ def test_the_environment_variable_and_a_file_path_work_like_import(tmp_path):
     assert trained.returncode == 0, trained.stderr
     resume = ["maopg.experiment.cli.train_cli", "--resume", "--run-dir", str(run)]
     assert _run(*resume, "--total-samples", "800", cwd=REPO).returncode == 0  # another cwd
+
+
+def test_a_plugin_file_imports_the_modules_beside_it_in_every_process(tmp_path, monkeypatch):
+    """``--import plug/task.py`` whose task is in a module beside it: the training (here), then
+    its ``--resume`` and the evaluation of its checkpoint (each a fresh process, in another
+    folder than the plugin's) import that module; the evaluation's JSON says what produced the
+    result: the task and its settings, the method and checkpoint, the plugin's file and hash."""
+    from maopg.experiment.cli.train_cli import main as train_main
+
+    plug = tmp_path / "plug"
+    plug.mkdir()
+    (plug / "field.py").write_text("from examples.berries import BerryConfig, BerryField\n")
+    plugin = plug / "task.py"
+    plugin.write_text(
+        "from field import BerryConfig, BerryField\n"
+        "from maopg.tasks import register_task\n"
+        "register_task('field', BerryField, config=BerryConfig)\n"
+    )
+    monkeypatch.setattr(sys, "path", list(sys.path))  # the plugin's folder goes on it
+    monkeypatch.chdir(tmp_path)
+    run = tmp_path / "run"
+    args = ["--import", "plug/task.py", "--task", "field", "--run-dir", str(run), *QUICK]
+    args += ["env.ripen_prob=0.05", "video=false", "eval_episodes=0", "--total-samples", "200"]
+    assert train_main(args) == 0
+    resume = ["--resume", "--run-dir", str(run), "--total-samples", "400"]
+    resumed = _run("train", *resume)
+    assert resumed.returncode == 0, resumed.stderr
+    out = tmp_path / "result.json"
+    evaluate = ["--checkpoint", str(run), "--episodes", "1", "--json", str(out)]
+    evaluated = _run("eval", "evaluate", *evaluate)
+    assert evaluated.returncode == 0, evaluated.stderr
+
+    source = json.loads(out.read_text())["source"]
+    assert (source["task"], source["strategy"]) == ("field", "continue")
+    assert source["env"]["ripen_prob"] == 0.05 and source["env"]["images"] is False
+    samples = json.loads((run / "done.json").read_text())["samples"]
+    assert source["policy"] == {
+        "method": "async",
+        "seed": 0,
+        "checkpoint": str((run / "final.pt").resolve()),
+        "samples": samples,
+        "greedy": True,
+    }
+    digest = hashlib.sha256(plugin.read_bytes()).hexdigest()
+    path = str(plugin.resolve())
+    record = {"plugin": path, "path": path, "sha256": digest}
+    assert record in source["plugins"]
 
 
 def test_an_installed_packages_entry_point_registers_its_task(tmp_path):

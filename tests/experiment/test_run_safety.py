@@ -1,11 +1,14 @@
-"""Data loss and hangs of the ``train`` and ``eval`` command lines (issue #17), each met where a
-user meets it: TensorBoard after a resume, ``--resume`` of the wrong directory or checkpoint, a
-failed start, a video of an endless episode, a diverging run, a corrupt checkpoint, a kill
-during a checkpoint write, a resume with a smaller budget."""
+"""Data loss and hangs of the ``train`` and ``eval`` command lines (issues #17 and #46), each met
+where a user meets it: TensorBoard after a resume, ``--resume`` of the wrong directory or
+checkpoint, a failed start, a video of an endless episode, a diverging run, a corrupt or edited
+checkpoint, a kill during a checkpoint write, a full disk, a resume with a smaller budget."""
 
 from __future__ import annotations
 
 import csv
+import errno
+import os
+import re
 import shutil
 import zipfile
 from pathlib import Path
@@ -20,8 +23,9 @@ from maopg.env.rollout import RandomPolicy
 from maopg.experiment.cli.eval_cli import main as eval_main
 from maopg.experiment.cli.train_cli import main
 from maopg.experiment.evaluation import evaluate as evaluation
-from maopg.experiment.run.directory import TIMING_COLUMNS
+from maopg.experiment.run.directory import TIMING_COLUMNS, RunLog
 from maopg.learner import load_checkpoint, save_checkpoint
+from maopg.learner.checkpoint import CHECKSUM_KEY
 
 RUN = [
     "--seed",
@@ -262,7 +266,86 @@ def test_flipped_bytes_in_a_checkpoint_are_an_error_of_eval(tmp_path, finished, 
     data[middle : middle + 4] = bytes(b ^ 0xFF for b in data[middle : middle + 4])
     final.write_bytes(bytes(data))
     evaluate = ["evaluate", "--checkpoint", str(final), "--episodes", "1"]
-    user_error(eval_main, evaluate, rf"checkpoint {final} is corrupt: its tensors do not match")
+    user_error(eval_main, evaluate, rf"checkpoint {final} is corrupt or was edited: its entries")
+
+
+@pytest.mark.parametrize("edit", ["relabelled", "unchecked"])
+def test_an_edited_checkpoint_neither_evaluates_nor_resumes(tmp_path, finished, user_error, edit):
+    """Async weights whose stored config was edited to say ``sync-cut``, or whose checksum was
+    deleted: the checksum covers the config too, and a checkpoint of today's format without it
+    is refused. One line naming the file, from ``eval`` and from ``--resume``."""
+    run_dir = _copy(finished, tmp_path)
+    (run_dir / "done.json").unlink()
+    for name in ("final.pt", "checkpoint.pt"):
+        state = torch.load(run_dir / name, weights_only=True)
+        if edit == "relabelled":
+            state["config"]["method"] = "sync-cut"
+        else:
+            del state[CHECKSUM_KEY]
+        torch.save(state, run_dir / name)
+    if edit == "relabelled":
+        why = "is corrupt or was edited: its entries do not match"
+    else:
+        why = rf"lacks the checksum its format carries \('{CHECKSUM_KEY}'; it has none\)"
+    final, checkpoint = (re.escape(str(run_dir / name)) for name in ("final.pt", "checkpoint.pt"))
+    evaluate = ["evaluate", "--checkpoint", str(run_dir / "final.pt"), "--episodes", "1"]
+    user_error(eval_main, evaluate, rf"checkpoint {final} {why}")
+    resume = ["--resume", "--run-dir", str(run_dir), "--total-samples", "360"]
+    user_error(main, resume, rf"checkpoint {checkpoint} {why}")
+
+
+@pytest.mark.parametrize(
+    ("cause", "where"),
+    [(errno.ENOSPC, "checkpoint write"), (errno.EROFS, "checkpoint move"), (errno.ENOSPC, "row")],
+)
+def test_a_full_disk_or_read_only_file_system_is_one_line(
+    tmp_path, finished, user_error, monkeypatch, cause, where
+):
+    """The machine refuses a write of a resumed run (simulated: the disk fills in the middle
+    of the checkpoint's write, the file system turns read-only when it is moved over the
+    previous one, the disk fills as a row is appended): one line naming the file (the run
+    directory, for a write into a file already open) and the cause, status 2, the previous
+    checkpoint intact and verified, no temporary left; the run goes on from it once the disk
+    takes writes again."""
+    run_dir = _copy(finished, tmp_path)
+    (run_dir / "done.json").unlink()
+    checkpoint = run_dir / "checkpoint.pt"
+    kept = load_checkpoint(checkpoint)["iteration"]
+    strerror = os.strerror(cause)
+    if where == "checkpoint write":
+
+        def fill_up(state, handle) -> None:
+            handle.write(b"PK\x03\x04" + bytes(4096))  # half a checkpoint, then no space
+            raise OSError(cause, strerror)
+
+        monkeypatch.setattr(torch, "save", fill_up)
+    elif where == "checkpoint move":
+        move = os.replace
+
+        def read_only(src, dst) -> None:
+            if Path(dst).name == "checkpoint.pt":
+                raise OSError(cause, strerror, str(src), None, str(dst))
+            move(src, dst)
+
+        monkeypatch.setattr(os, "replace", read_only)
+    else:
+
+        def no_space(self, row) -> None:
+            raise OSError(cause, strerror)
+
+        monkeypatch.setattr(RunLog, "write", no_space)
+    named = checkpoint if where.startswith("checkpoint") else run_dir
+    intact = r" \(the checkpoint.pt there before is intact\)" if named == checkpoint else ""
+    resume = ["--resume", "--run-dir", str(run_dir), "--total-samples", "360", "plot=false"]
+    err = user_error(
+        main, resume, rf"error: cannot write {re.escape(str(named))}: {strerror}{intact}$"
+    )
+    assert len(err.strip().splitlines()) == 1
+    assert load_checkpoint(checkpoint)["iteration"] == kept
+    assert not list(run_dir.glob(".checkpoint.pt.*.tmp"))
+    if where == "row":  # the same for all: the run goes on from the checkpoint kept
+        monkeypatch.undo()
+        assert main(resume) == 0 and (run_dir / "done.json").exists()
 
 
 def test_a_resume_removes_the_temporary_of_a_killed_checkpoint_write(tmp_path, finished):

@@ -12,6 +12,7 @@ from maopg.learner import (
     restore_global_rng,
     save_checkpoint,
 )
+from maopg.learner.checkpoint import CHECKSUM_KEY, TENSORS_CHECKSUM_KEY, tensors_digest
 
 
 def test_round_trip_restores_tensors_counters_and_rng_streams(tmp_path):
@@ -84,7 +85,7 @@ class _Custom:
     pass
 
 
-def test_flipped_tensor_bytes_are_caught_and_old_checkpoints_still_load(tmp_path):
+def test_flipped_tensor_bytes_are_caught_and_old_checkpoints_load_where_accepted(tmp_path):
     weights = {"w": torch.arange(4096, dtype=torch.float32), "n": torch.tensor(3)}
     path = save_checkpoint(tmp_path / "ck.pt", {"weights": weights, "iteration": 1})
     assert set(load_checkpoint(path)) == {"weights", "iteration"}  # the checksum is ours
@@ -93,10 +94,36 @@ def test_flipped_tensor_bytes_are_caught_and_old_checkpoints_still_load(tmp_path
     assert at > 0
     data[at] ^= 0x01  # one bit of the weights, not of the zip's or the pickle's bookkeeping
     path.write_bytes(bytes(data))
-    with pytest.raises(CheckpointError, match=rf"checkpoint {path} is corrupt: its tensors"):
+    with pytest.raises(CheckpointError, match=rf"checkpoint {path} is corrupt or was edited"):
         load_checkpoint(path)
-    torch.save({"weights": weights}, path)  # written before checkpoints carried a checksum
-    torch.testing.assert_close(load_checkpoint(path)["weights"]["w"], weights["w"])
+
+    # earlier formats: a checksum of the tensors alone, or none; by default neither loads
+    earlier = {"weights": weights, TENSORS_CHECKSUM_KEY: tensors_digest({"weights": weights})}
+    for stored, accepted in ((earlier, TENSORS_CHECKSUM_KEY), ({"weights": weights}, None)):
+        torch.save(stored, path)
+        with pytest.raises(CheckpointError, match=rf"checkpoint {path} lacks the checksum"):
+            load_checkpoint(path)
+        loaded = load_checkpoint(path, accepts=lambda state, kind=accepted: (kind,))
+        torch.testing.assert_close(loaded["weights"]["w"], weights["w"])
+    earlier["weights"] = {"w": weights["w"] + 1}  # the tensors-only checksum still tells
+    torch.save(earlier, path)
+    with pytest.raises(CheckpointError, match="its tensors do not match"):
+        load_checkpoint(path, accepts=lambda state: (TENSORS_CHECKSUM_KEY,))
+
+
+def test_the_checksum_covers_every_entry_not_only_the_tensors(tmp_path):
+    """An edited number, string, container or type (``1`` for ``1.0``, a tuple for a list):
+    each is caught; the same entries in another order are not an edit."""
+    state = {"config": {"method": "async", "lr": 1.0, "sizes": [64, 64]}, "w": torch.ones(2)}
+    path = save_checkpoint(tmp_path / "ck.pt", state)
+    stored = torch.load(path, weights_only=True)
+    config = dict(reversed(stored["config"].items()))
+    torch.save({"w": stored["w"], CHECKSUM_KEY: stored[CHECKSUM_KEY], "config": config}, path)
+    assert load_checkpoint(path)["config"] == state["config"]
+    for edit in ({"method": "sync-cut"}, {"lr": 1}, {"sizes": (64, 64)}, {"sizes": [64]}):
+        torch.save({**stored, "config": {**stored["config"], **edit}}, path)
+        with pytest.raises(CheckpointError, match="its entries do not match"):
+            load_checkpoint(path)
 
 
 def test_only_our_own_stale_temporaries_are_removed(tmp_path):

@@ -139,11 +139,13 @@ def _task_settings(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def _policy_and_env(args: argparse.Namespace):
-    """``(label, who, env, policy)`` for a checkpoint or a reference policy: ``label`` names
-    it in a results table, ``who`` in a video's title (the training seed and greedy/sampled of
-    a checkpoint's policy, the name of a reference one)."""
+    """``(label, who, env, policy, acting)`` for a checkpoint or a reference policy: ``label``
+    names it in a results table, ``who`` in a video's title (the training seed and
+    greedy/sampled of a checkpoint's policy, the name of a reference one), ``acting`` in an
+    evaluation's record (:mod:`maopg.experiment.evaluation.provenance`)."""
     from maopg.env import make_env
     from maopg.env.rollout import reference_policy
+    from maopg.experiment.evaluation.provenance import checkpoint_acting, reference_acting
 
     settings = _task_settings(args)
     if args.checkpoint is not None:
@@ -161,14 +163,16 @@ def _policy_and_env(args: argparse.Namespace):
         policy = trained.actor(greedy=not args.sample, seed=args.seed)
         c = trained.config
         label = f"{c.method} seed{c.seed} @ {trained.samples} samples"
-        return label, trained.label(greedy=not args.sample), env, policy
+        acting = checkpoint_acting(trained, greedy=not args.sample)
+        return label, trained.label(greedy=not args.sample), env, policy, acting
     from maopg.tasks import task_class
     from maopg.tasks.base import require_strategy
 
     task, strategy = args.task or "tool_delivery", args.strategy or "continue"
     require_strategy(task_class(task), task, strategy)
     env = make_env(task, strategy, seed=args.seed, overrides=settings)
-    return args.reference, args.reference, env, reference_policy(args.reference, env, args.seed)
+    policy = reference_policy(args.reference, env, args.seed)
+    return args.reference, args.reference, env, policy, reference_acting(args.reference)
 
 
 def _thresholds(items: list[str]) -> dict[str, float]:
@@ -193,12 +197,14 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         results_table,
         write_result,
     )
+    from maopg.experiment.evaluation.provenance import provenance
 
-    label, _, env, policy = _policy_and_env(args)
+    label, _, env, policy, acting = _policy_and_env(args)
     try:
         result = evaluate(
             env, policy, args.episodes, seed=args.seed, label=label, progress=not args.no_progress
         )
+        result.source = provenance(env, acting)
     finally:
         env.close()
     print(results_table([result.summary]), end="")
@@ -211,7 +217,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
 def cmd_video(args: argparse.Namespace) -> int:
     from maopg.env.video import record_episode
 
-    _, who, env, policy = _policy_and_env(args)
+    _, who, env, policy, _ = _policy_and_env(args)
     try:
         video = record_episode(
             env,

@@ -62,6 +62,9 @@ class EvalResult:
     cut: list[bool] = field(default_factory=list, repr=False)
     """Per episode: stopped at ``max_ticks`` of :func:`evaluate` while it went on (its return
     and length are then those of its first ``max_ticks`` ticks)."""
+    source: dict[str, Any] = field(default_factory=dict, repr=False)
+    """What was evaluated — the task and its settings, the policy, the plugins
+    (:func:`maopg.experiment.evaluation.provenance.provenance`) — where the caller recorded it."""
 
     @property
     def summary(self) -> dict[str, Any]:
@@ -82,7 +85,9 @@ class EvalResult:
         }
 
     def to_json(self) -> str:
-        return json.dumps({**self.summary, "per_episode": asdict(self)}, indent=2) + "\n"
+        episodes = {key: value for key, value in asdict(self).items() if key != "source"}
+        record = {**self.summary, "source": self.source, "per_episode": episodes}
+        return json.dumps(record, indent=2) + "\n"
 
 
 def evaluate(

@@ -18,8 +18,8 @@ from maopg.env import EnvSpec, OptionEnv
 from maopg.experiment.run.config import TrainConfig
 from maopg.experiment.run.directory import CHECKPOINT, FINAL
 from maopg.experiment.run.methods import Method, get_method
-from maopg.experiment.run.migration import migrate_checkpoint
-from maopg.learner import Actor, CheckpointError, fitting, load_checkpoint
+from maopg.experiment.run.migration import read_checkpoint
+from maopg.learner import Actor, CheckpointError, fitting
 from maopg.plugins import load_plugins
 from maopg.policy import set_precision
 
@@ -77,7 +77,7 @@ def load_trained(path: str | Path, device: str = "cpu") -> Trained:
     result is the device it was loaded on.
     """
     file = resolve_checkpoint(path)
-    state = migrate_checkpoint(load_checkpoint(file, required=("config",)))
+    state = read_checkpoint(file, required=("config",))
     load_plugins(state["config"].get("plugins", []))  # the run's task or method may be theirs
     saved = TrainConfig.from_dict(state["config"])
     config = dataclasses.replace(saved, device=device).resolved()

@@ -20,8 +20,18 @@ default — is read as it is, so the task's defaults apply to what it leaves uns
 
 Checkpoint schema 1 → 2: the environments' entry was ``sampler``; the config it holds is
 migrated as a schema-1 config. Checkpoint schema 2 → 3: its config, as config 2 → 3 (the
-learner's finished-episode count, new with exploration, is 0 where absent). A checkpoint's
-config is in its checkpoint's schema.
+learner's finished-episode count, new with exploration, is 0 where absent). Checkpoint schema
+3 → 4: the entries are the same; the checksum saved with them covers them all, the config
+included, where schemas 2 and 3 checksummed the tensors alone
+(:mod:`maopg.learner.checkpoint`). A checkpoint's config is in its checkpoint's schema.
+
+Which checksum a checkpoint must carry follows from its schema (:func:`read_checkpoint`, the
+one way the trainer and the evaluation read a checkpoint): from schema 4 the one over every
+entry; in schemas 2 and 3 at least the one over the tensors; only a schema-1 checkpoint may
+carry none — the earliest were written before checkpoints carried a checksum — and it then
+loads unverified, as it always did. A checkpoint whose checksum was deleted is refused, unless
+its ``schema`` entry was deleted too: it then passes for one of the earliest, which nothing
+tells apart from them.
 
 A command-line spelling of an earlier release (``epochs=5``, ``--set``) is not a saved file: the
 command lines read it with one deprecation line
@@ -30,13 +40,19 @@ command lines read it with one deprecation line
 
 from __future__ import annotations
 
+import os
 from typing import Any
+
+from maopg.learner import load_checkpoint
+from maopg.learner.checkpoint import CHECKSUM_KEY, TENSORS_CHECKSUM_KEY
 
 SCHEMA_KEY = "schema"
 CONFIG_SCHEMA = 3
 """The layout :meth:`~maopg.experiment.run.config.TrainConfig.save` writes."""
-CHECKPOINT_SCHEMA = 3
+CHECKPOINT_SCHEMA = 4
 """The layout the trainer's checkpoints are written in."""
+WHOLE_CHECKSUM_SCHEMA = 4
+"""The first checkpoint schema whose checksum covers every entry, not the tensors alone."""
 
 FLAT_PPO_KEYS = frozenset(
     {
@@ -137,3 +153,17 @@ def migrate_checkpoint(state: dict[str, Any]) -> dict[str, Any]:
     elif schema == 2 and isinstance(config, dict):
         state["config"] = _config_2_to_3(dict(config))
     return state
+
+
+def _checksums_of_its_schema(state: dict[str, Any]) -> tuple[str | None, ...]:
+    """The checksum entries a checkpoint of ``state``'s schema may carry (module docstring)."""
+    schema = state.get(SCHEMA_KEY, 1)
+    if not isinstance(schema, int) or schema >= WHOLE_CHECKSUM_SCHEMA:  # a bad one: migrated,
+        return (CHECKSUM_KEY,)  # it is refused by name
+    return (CHECKSUM_KEY, TENSORS_CHECKSUM_KEY) + ((None,) if schema == 1 else ())
+
+
+def read_checkpoint(path: str | os.PathLike[str], required: tuple[str, ...] = ()) -> dict:
+    """A checkpoint file's entries, verified by the checksum its schema carries (module
+    docstring), in the current schema (:func:`migrate_checkpoint`)."""
+    return migrate_checkpoint(load_checkpoint(path, required, accepts=_checksums_of_its_schema))

@@ -53,9 +53,10 @@ from maopg.experiment.run.directory import (
     scalar_tag,
     write_done,
 )
+from maopg.experiment.run.errors import writing_into
 from maopg.experiment.run.lock import RunDirLock
 from maopg.experiment.run.methods import get_method
-from maopg.experiment.run.migration import CHECKPOINT_SCHEMA, SCHEMA_KEY, migrate_checkpoint
+from maopg.experiment.run.migration import CHECKPOINT_SCHEMA, SCHEMA_KEY, read_checkpoint
 from maopg.experiment.run.sysinfo import BF16_FLAGS, bf16_instructions
 from maopg.experiment.run.tb_video import add_video
 from maopg.experiment.run.wandb_log import WandbMirror
@@ -68,7 +69,6 @@ from maopg.learner import (
     NonFiniteError,
     capture_global_rng,
     fitting,
-    load_checkpoint,
     remove_stale_temporaries,
     restore_global_rng,
     save_checkpoint,
@@ -282,7 +282,7 @@ def _check_checkpoint(state: dict, config: TrainConfig, path: Path) -> None:
 
 
 def _envs_state(state: dict, path: Path) -> dict:
-    """The environments' entry of a checkpoint (of any schema: :func:`migrate_checkpoint`)."""
+    """The environments' entry of a checkpoint (of any schema: :func:`read_checkpoint`)."""
     if "envs" not in state:
         raise CheckpointError(f"checkpoint {path} lacks the entries ['envs']")
     return state["envs"]
@@ -426,9 +426,13 @@ def train(config: TrainConfig, *, resume: bool = False, overwrite: bool = False)
     The run directory stays locked while this runs (:mod:`maopg.experiment.run.lock`): another
     process that names it stops with :class:`~maopg.experiment.run.lock.RunDirBusy`. An
     existing directory is locked before what it holds is read, a new one once it is created.
+    A write the machine refuses (a full disk, a read-only file system) is an ``OSError`` that
+    names its file, or the run directory where Python kept no name (:func:`writing_into`);
+    the checkpoint before it is intact (:func:`~maopg.learner.save_checkpoint`).
     """
     config = config.resolved()
-    with RunDirLock(Path(config.run_dir)) as lock:  # type: ignore[arg-type]
+    run_dir = Path(config.run_dir)  # type: ignore[arg-type]
+    with RunDirLock(run_dir) as lock, writing_into(run_dir):
         return _train(config, lock, resume=resume, overwrite=overwrite)
 
 
@@ -475,9 +479,7 @@ def _train(config: TrainConfig, lock: RunDirLock, *, resume: bool, overwrite: bo
                 (run_dir / stale).unlink(missing_ok=True)
         iteration, samples, wall_time = 0, 0, 0.0
         if resume:
-            state = migrate_checkpoint(
-                load_checkpoint(checkpoint_path, required=("iteration", "config"))
-            )
+            state = read_checkpoint(checkpoint_path, required=("iteration", "config"))
             _check_checkpoint(state, config, checkpoint_path)
             with fitting(checkpoint_path):
                 learner.load_state_dict(state)
