@@ -25,9 +25,10 @@ LITERAL = re.compile(r"::$", re.MULTILINE)
 
 def _identifier(obj: griffe.Object, target: str) -> str:
     """The full path of ``target`` as written in ``obj``'s docstring (unchanged if unknown)."""
+    target = re.sub(r"\s+", "", target)  # a role wrapped over two lines
     module = obj if obj.is_module else obj.module
     if target.startswith("."):
-        base = module if module.is_package else module.parent
+        base = module if module.is_init_module else module.parent
         dots = len(target) - len(target.lstrip("."))
         for _ in range(dots - 1):
             base = base.parent if base is not None else None
@@ -44,7 +45,8 @@ def convert(obj: griffe.Object, text: str) -> str:
 
     def link(match: re.Match) -> str:
         short, target = match.groups()
-        shown = target.split(".")[-1] if short else target.lstrip(".")
+        shown = re.sub(r"\s+", "", target)
+        shown = shown.split(".")[-1] if short else shown.lstrip(".")
         return (
             f'<autoref identifier="{_identifier(obj, target)}" optional>'
             f"<code>{shown}</code></autoref>"
