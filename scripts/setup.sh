@@ -2,7 +2,8 @@
 # Create (or refresh) the project's virtual environment in .venv and check headless rendering.
 # Idempotent: a second run with unchanged requirements only re-checks EGL (a few seconds).
 # MAOPG_EXTRAS names the optional extras to install besides the core (default: dev; the test
-# command adds ray and wandb, so the Ray backend's and the W&B logger's tests run).
+# command adds ray, wandb and docs, so the Ray backend's and the W&B logger's tests run and the
+# documentation site is built).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 PY=${PYTHON:-python3}

@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # Set up (idempotent, with the optional Ray and W&B extras: their backend and logger are tested
-# too) and run the whole test suite plus lint. CI runs exactly this (.ci/run).
+# too, and the docs extra: the site is built with warnings as errors) and run the whole test
+# suite plus lint. CI runs exactly this (.ci/run).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-MAOPG_EXTRAS=dev,ray,wandb bash scripts/setup.sh
+MAOPG_EXTRAS=dev,ray,wandb,docs bash scripts/setup.sh
 .venv/bin/ruff format --check .
 .venv/bin/ruff check .
 # One test process per core (pytest-xdist), each taking whole test files: a module's fixtures

@@ -609,9 +609,9 @@ def _train(config: TrainConfig, lock: RunDirLock, *, resume: bool, overwrite: bo
 
 def after_training_plan(config: TrainConfig, estimate: float | None = None) -> str:
     """The line that says what follows training and how big each step is, so the time after
-    the training bar (about 30 s for Tool Delivery's defaults on 2 cores, README "Progress")
-    is announced rather than silent; empty when nothing follows. ``estimate``: the seconds
-    these steps should take, from the rates the training measured
+    the training bar (about 30 s for Tool Delivery's defaults on 2 cores; docs/getting-started.md,
+    "Progress and estimates") is announced rather than silent; empty when nothing follows.
+    ``estimate``: the seconds these steps should take, from the rates the training measured
     (:func:`maopg.experiment.training.eta.after_training_seconds`, the part of the training bar's
     ``run done in ~...`` that follows the samples), said as an estimate; each step's own bar
     then gives its ETA from its own measured rate.
