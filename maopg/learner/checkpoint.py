@@ -39,12 +39,10 @@ from typing import Any
 import numpy as np
 import torch
 
+from maopg.learner.errors import CheckpointError
+
 CHECKSUM_KEY = "tensors_sha256"
 """The entry holding :func:`tensors_digest` of the rest of the checkpoint (a plain string)."""
-
-
-class CheckpointError(RuntimeError):
-    """A checkpoint file is missing, truncated, corrupt, or not one of ours."""
 
 
 def on_cpu(value: Any) -> Any:

@@ -16,33 +16,20 @@ bounds itself (:class:`maopg.settings.Settings`).
 from __future__ import annotations
 
 import dataclasses
-import importlib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from maopg.tasks.base import Task, TaskConfig
-from maopg.tasks.scripting import ScriptedFactory
+from maopg.exports import resolve
+from maopg.tasks.config import TaskConfig
+
+if TYPE_CHECKING:
+    from maopg.tasks.base import Task
+    from maopg.tasks.scripting import ScriptedFactory
 
 StateLines = Callable[[Mapping[str, Any]], list[str]]
 """Formats a ``Task.describe()`` dict as the video panel's lines."""
-
-
-def _resolve(ref: Any) -> Any:
-    """Import ``"package.module:Attr.attr"`` lazily; any other value is returned as is."""
-    if not isinstance(ref, str):
-        return ref
-    module, sep, path = ref.partition(":")
-    if not sep or not path:
-        raise ValueError(f"expected 'package.module:Attr', got {ref!r}")
-    value: Any = importlib.import_module(module)
-    for attr in path.split("."):
-        try:
-            value = getattr(value, attr)
-        except AttributeError:
-            raise ValueError(f"{ref!r}: {type(value).__name__} has no attribute {attr!r}") from None
-    return value
 
 
 @dataclass(frozen=True)
@@ -67,22 +54,24 @@ class TaskEntry:
     class registered as several tasks: each wrapped PettingZoo environment, say)."""
 
     def task_class(self) -> type[Task]:
-        cls = _resolve(self.task)
+        from maopg.tasks.base import Task  # MuJoCo: only once a task is built
+
+        cls = resolve(self.task)
         if not (isinstance(cls, type) and issubclass(cls, Task)):
             raise TypeError(f"task {self.name!r}: {self.task!r} is not a Task class")
         return cls
 
     def config_class(self) -> type[TaskConfig]:
-        cls = _resolve(self.config)
+        cls = resolve(self.config)
         if not (isinstance(cls, type) and issubclass(cls, TaskConfig)):
             raise TypeError(f"task {self.name!r}: {self.config!r} is not a TaskConfig dataclass")
         return cls
 
     def scripted_factory(self) -> ScriptedFactory | None:
-        return _resolve(self.scripted)
+        return resolve(self.scripted)
 
     def state_lines_fn(self) -> StateLines | None:
-        return _resolve(self.state_lines)
+        return resolve(self.state_lines)
 
 
 _TASKS: dict[str, TaskEntry] = {}

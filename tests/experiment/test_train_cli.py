@@ -96,7 +96,7 @@ def test_overrides_are_typed_and_checked(capsys):
     assert "ppo" not in config.to_dict() and config.to_dict()["dqn"]["train_every"] == 7
     config, _ = parse_args(["--method", "sync-wait", "--seed", "3", "ppo.discount=option"])
     resolved = config.resolved()
-    assert resolved.strategy == "all" and get_method("sync-wait").learner.section == "ppo"
+    assert resolved.strategy == "all" and get_method("sync-wait").learner_class.section == "ppo"
     assert resolved.batch_ticks == 200 and resolved.learner.discount == "option"
     assert resolved.run_dir == os.path.join("runs", "tool_delivery", "sync-wait", "seed3")
     with pytest.raises(ValueError, match="unknown method"):

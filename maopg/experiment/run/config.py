@@ -31,23 +31,23 @@ import types
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Union, get_args, get_origin, get_type_hints
-
-import torch
+from typing import TYPE_CHECKING, Any, Union, get_args, get_origin, get_type_hints
 
 from maopg.env import check_overrides
-from maopg.env.ray_backend import INSTALL_HINT, RayOptions, ray_available
-from maopg.env.vector import BACKENDS, EnvConfig
+from maopg.env.ray_options import INSTALL_HINT, RayOptions, ray_available
 from maopg.experiment.run.config_file import read_config_file
 from maopg.experiment.run.methods import get_method, section_classes
 from maopg.experiment.run.migration import CONFIG_SCHEMA, FLAT_PPO_KEYS, SCHEMA_KEY
 from maopg.experiment.run.wandb_log import INSTALL_HINT as WANDB_HINT
 from maopg.experiment.run.wandb_log import WandbOptions, wandb_available
-from maopg.policy import PRECISIONS
+from maopg.policy.choices import PRECISION_NAMES
 from maopg.settings import Settings, setting
 from maopg.sim.egl_check import gl_problem
 from maopg.tasks import make_config, task_class, task_entry
-from maopg.tasks.base import MAX_IMAGE_SIZE, require_strategy
+from maopg.tasks.config import MAX_IMAGE_SIZE
+
+if TYPE_CHECKING:
+    from maopg.env.vector import EnvConfig
 
 GENERIC_DEFAULTS: dict[str, Any] = {
     "batch_ticks": 1000,
@@ -84,7 +84,11 @@ class TrainConfig(Settings):
     and again once :meth:`resolved` has filled in the defaults."""
 
     task: str = "tool_delivery"
+    """The task trained on (``--task``): a registered task's name; its ``env.*`` settings are
+    its own."""
     method: str = "async"
+    """The method (``--method``): a registered method's name, which brings the termination
+    strategy, the policy and the learner section it reads (``ppo``, ``dqn``, ...)."""
     seed: int = setting(0, ge=0)
     """Seeds every random stream of the run (episodes, initialisation, sampling)."""
     total_samples: int | None = setting(None, ge=1)
@@ -96,6 +100,7 @@ class TrainConfig(Settings):
     image_size: int = setting(64, ge=1, le=MAX_IMAGE_SIZE)
     """Side of the square camera images (px)."""
     num_envs: int = setting(4, ge=1)
+    """Environments stepped in lockstep, each playing its own seeded episodes."""
     backend: str | None = None
     """Where the environments run: ``local`` (this process, one after another), ``threads``
     (this process, stepped in parallel while ``mj_step`` and rendering release the GIL;
@@ -133,7 +138,7 @@ class TrainConfig(Settings):
     environments always step (and render) on the CPU side. Bit-exact learning curves are
     promised on ``cpu`` only: CUDA kernels round differently (and not always deterministically),
     so a ``cuda`` run is reproducible in distribution, not bit for bit."""
-    precision: str = setting("fp32", choices=tuple(PRECISIONS))
+    precision: str = setting("fp32", choices=PRECISION_NAMES)
     """What the image encoders (the CNNs) compute in: ``fp32``, or ``bf16``, faster on a CPU
     with bf16 instructions (AVX512-BF16, AMX) and ``torch_threads=1`` or on a recent GPU, slower
     elsewhere (``bench/perf/precision.py``; :func:`~maopg.policy.encoders.set_precision` says why
@@ -143,6 +148,7 @@ class TrainConfig(Settings):
     """``torch.set_num_threads`` (0 = torch's default). One thread is fastest for the small
     state-vector networks and avoids oversubscribing the cores the environments use."""
     progress: bool = True
+    """Show progress bars on stderr (training, and the evaluation and video at the end)."""
     video: bool = True
     """Record a rollout of the trained policy (seed 0) to ``rollout.mp4`` at the end
     (~45 s on Water Filling; ``video=false`` skips it, as the reproduction grid does)."""
@@ -186,6 +192,8 @@ class TrainConfig(Settings):
     defaults). Saved under the section's name (``"ppo": {...}``)."""
 
     def validate(self) -> None:
+        from maopg.env.vector import BACKENDS  # the backends' registry: torch and MuJoCo
+
         super().validate()
         if self.backend is not None and self.backend not in BACKENDS:
             raise ValueError(f"backend must be one of {sorted(BACKENDS)}, got {self.backend!r}")
@@ -232,6 +240,8 @@ class TrainConfig(Settings):
             raise ValueError(WANDB_HINT)
         cfg.learner.validate()
         make_config(cfg.task, cfg.env_overrides)  # the task settings' names and kinds
+        from maopg.tasks.base import require_strategy  # MuJoCo, which task_class loads anyway
+
         require_strategy(task_class(cfg.task), cfg.task, cfg.strategy, method=cfg.method)
         return cfg
 
@@ -248,6 +258,8 @@ class TrainConfig(Settings):
         return dataclasses.asdict(self.ray) if self.backend == "ray" else {}
 
     def env(self) -> EnvConfig:
+        from maopg.env.vector import EnvConfig
+
         return EnvConfig(
             task=self.task,
             strategy=self.strategy,
@@ -344,6 +356,8 @@ def resolve_device(device: str) -> str:
     ``cuda`` without a GPU is a ``ValueError``, as is anything else (naming the setting)."""
     if device not in DEVICES:
         raise ValueError(f"device must be one of {list(DEVICES)}, got {device!r}")
+    import torch  # only here: reading and checking a config needs no torch
+
     if device == "auto":
         return "cuda" if torch.cuda.is_available() else "cpu"
     if device == "cuda" and not torch.cuda.is_available():

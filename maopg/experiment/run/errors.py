@@ -13,9 +13,9 @@ from __future__ import annotations
 import sys
 from collections.abc import Callable
 
-from maopg.learner import CheckpointError, NonFiniteError
+from maopg.learner.errors import CheckpointError, NonFiniteError
 from maopg.plugins import PluginError
-from maopg.sim.render import RenderError
+from maopg.sim.egl_check import RenderError
 
 USER_ERRORS = (
     ValueError,
