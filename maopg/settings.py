@@ -25,11 +25,12 @@ Relations between fields go in an override of :meth:`Settings.validate` that cal
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import itertools
 import math
 import operator
 import types
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import MISSING, dataclass
 from functools import cache
 from typing import Any, ClassVar, Union, get_args, get_origin, get_type_hints
@@ -144,6 +145,30 @@ class Settings:
                 problem = bounds.problem(normal)
                 if problem:
                     raise ValueError(f"{name} {problem}, got {value!r}")
+
+
+NEAR = 0.6
+"""How alike (:class:`difflib.SequenceMatcher` ratio) a known setting's field name must be to
+an unknown one's to be suggested for it (difflib's own default)."""
+
+
+def unknown_setting(name: str, known: Iterable[str], where: str = "") -> ValueError:
+    """The error for a setting ``name`` (``ppo.epoch``) that none of the ``known`` ones is
+    (``where`` says whose: `` of task 'x'``): one line with the known setting whose field name
+    is nearest (``max_tick`` → ``env.max_ticks``; in its own section where two are as near),
+    or the known settings of its section when none is near enough."""
+    known = sorted(set(known))
+    section, _, field = name.rpartition(".")
+
+    def likeness(key: str) -> tuple[float, bool]:
+        own_section, _, own_field = key.rpartition(".")
+        return difflib.SequenceMatcher(None, field, own_field).ratio(), own_section == section
+
+    nearest = max(known, key=likeness, default=None)
+    if nearest is not None and likeness(nearest)[0] >= NEAR:
+        return ValueError(f"unknown setting {name!r}{where}: did you mean {nearest!r}?")
+    same = [key for key in known if key.rpartition(".")[0] == section]
+    return ValueError(f"unknown setting {name!r}{where}; known: {', '.join(same or known)}")
 
 
 @cache

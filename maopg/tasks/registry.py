@@ -9,7 +9,7 @@ return threshold, settings of one method's runs) belongs to the study
 imported on first use, so registering a task imports none of its simulation code.
 
 ``make_config`` validates overrides against the config's fields, so a typo fails loudly with the
-list of valid keys instead of being silently ignored; the config checks each value's kind and
+nearest valid key instead of being silently ignored; the config checks each value's kind and
 bounds itself (:class:`maopg.settings.Settings`).
 """
 
@@ -22,6 +22,7 @@ from types import MappingProxyType
 from typing import TYPE_CHECKING, Any
 
 from maopg.exports import resolve
+from maopg.settings import unknown_setting
 from maopg.tasks.config import TaskConfig
 
 if TYPE_CHECKING:
@@ -150,18 +151,17 @@ def task_class(name: str) -> type[Task]:
 
 def make_config(name: str, overrides: Mapping[str, Any] | None = None) -> TaskConfig:
     """The task's default config (its registration's ``defaults`` applied) with ``overrides``
-    applied. Unknown keys are an error, and so is a value of the wrong kind or out of the
-    field's declared bounds (:class:`maopg.settings.Settings`: ``max_ticks="abc"`` would
-    otherwise fail mid-episode)."""
+    applied. An unknown key is an error naming the nearest known one, and so is a value of the
+    wrong kind or out of the field's declared bounds (:class:`maopg.settings.Settings`:
+    ``max_ticks="abc"`` would otherwise fail mid-episode)."""
     entry = task_entry(name)
     config = entry.config_class()()
     overrides = {**entry.defaults, **(overrides or {})}
     fields = {f.name for f in dataclasses.fields(config)}
     unknown = sorted(set(overrides) - fields)
     if unknown:
-        raise ValueError(
-            f"unknown config key(s) {unknown} for task {name!r}; valid keys: {sorted(fields)}"
-        )
+        known = [f"{TaskConfig.PREFIX}{field}" for field in fields]
+        raise unknown_setting(f"{TaskConfig.PREFIX}{unknown[0]}", known, f" of task {name!r}")
     return dataclasses.replace(config, **overrides)
 
 

@@ -80,9 +80,9 @@ def test_overrides_are_typed_and_checked(capsys):
     }
     dqn = parse_overrides(["dqn.lr=2e-4", "dqn.recurrent=yes"], "mac-dqn")
     assert dqn == {"dqn": {"lr": 2e-4, "recurrent": True}}
-    with pytest.raises(ValueError, match="unknown config key 'epoch'"):
+    with pytest.raises(ValueError, match=r"unknown setting 'epoch': did you mean 'ppo\.epochs'"):
         parse_overrides(["epoch=5"], "async")
-    with pytest.raises(ValueError, match=r"unknown config key 'dqn\.epochs'"):
+    with pytest.raises(ValueError, match=r"unknown setting 'dqn\.epochs'"):
         parse_overrides(["dqn.epochs=5"], "mac-dqn")
     with pytest.raises(ValueError, match="reads the 'ppo' section, not 'dqn'"):
         parse_overrides(["dqn.lr=1e-3"], "async")

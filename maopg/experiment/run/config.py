@@ -33,18 +33,18 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Union, get_args, get_origin, get_type_hints
 
-from maopg.env import check_overrides
+from maopg.env import OWN_ARGUMENTS, check_overrides
 from maopg.env.ray_options import INSTALL_HINT, RayOptions, ray_available
 from maopg.experiment.run.config_file import read_config_file
-from maopg.experiment.run.methods import get_method, section_classes
+from maopg.experiment.run.methods import get_method, method_names, section_classes
 from maopg.experiment.run.migration import CONFIG_SCHEMA, FLAT_PPO_KEYS, SCHEMA_KEY
 from maopg.experiment.run.wandb_log import INSTALL_HINT as WANDB_HINT
 from maopg.experiment.run.wandb_log import WandbOptions, wandb_available
 from maopg.policy.choices import PRECISION_NAMES
-from maopg.settings import Settings, setting
+from maopg.settings import Settings, setting, unknown_setting
 from maopg.sim.egl_check import gl_problem
 from maopg.tasks import make_config, task_class, task_entry
-from maopg.tasks.config import MAX_IMAGE_SIZE
+from maopg.tasks.config import MAX_IMAGE_SIZE, TaskConfig
 
 if TYPE_CHECKING:
     from maopg.env.vector import EnvConfig
@@ -369,11 +369,12 @@ def resolve_device(device: str) -> str:
 
 
 def _known(cls: type, data: dict[str, Any], prefix: str) -> None:
-    """Every key of ``data`` names a field of ``cls`` (a ``ValueError`` naming the others)."""
+    """Every key of ``data`` names a field of ``cls`` (else a ``ValueError`` naming the first
+    other and the nearest field)."""
     names = {f.name for f in dataclasses.fields(cls)} - {"learner", *RUN_SECTIONS}
     unknown = sorted(set(data) - names)
     if unknown:
-        raise ValueError(f"unknown config keys {[prefix + k for k in unknown]}")
+        raise unknown_setting(prefix + unknown[0], [prefix + name for name in names])
 
 
 def _build(cls: type, data: dict[str, Any], prefix: str) -> Any:
@@ -463,6 +464,7 @@ def _place_settings(pairs: list[tuple[str, Any]], method: str, *, parse: bool) -
     the value is command-line text, read as the field's type)."""
     own = get_method(method).section
     sections = section_classes()
+    known = setting_names(method)
     values: dict[str, Any] = {}
     for key, given in pairs:
         item = f"{key}={given}"
@@ -476,26 +478,29 @@ def _place_settings(pairs: list[tuple[str, Any]], method: str, *, parse: bool) -
                 file=sys.stderr,
             )
             section, name, dot = "ppo", key, "."
+        if key == "strategy":
+            raise ValueError(
+                f"strategy is no setting: the method brings it; {methods_by_strategy()}"
+            )
         if not dot:
-            values[key] = _field_value(TrainConfig, key, given, "", parse)
+            values[key] = _field_value(TrainConfig, key, given, "", parse, known)
         elif section == "env":
             setting = parse_task_settings([f"{name}={given}"])[name] if parse else given
             values.setdefault("env_overrides", {})[name] = setting
         elif section in RUN_SECTIONS:
             values.setdefault(section, {})[name] = _field_value(
-                RUN_SECTIONS[section], name, given, f"{section}.", parse
+                RUN_SECTIONS[section], name, given, f"{section}.", parse, known
             )
         elif section == own:
             values.setdefault(section, {})[name] = _field_value(
-                sections[section], name, given, f"{section}.", parse
+                sections[section], name, given, f"{section}.", parse, known
             )
         elif section in sections:
             raise ValueError(
                 f"{item!r}: method {method!r} reads the {own!r} section, not {section!r}"
             )
         else:
-            known = sorted({own, "env", *RUN_SECTIONS})
-            raise ValueError(f"unknown config section {section!r} in {item!r}; known: {known}")
+            raise unknown_setting(key, known)
     return values
 
 
@@ -503,13 +508,40 @@ def _run_fields() -> list[str]:
     return sorted(f.name for f in dataclasses.fields(TrainConfig) if f.name not in NOT_RUN_FIELDS)
 
 
-def _field_value(cls: type, name: str, given: Any, prefix: str, parse: bool) -> Any:
-    """``given`` for field ``name`` of ``cls`` (an unknown name is an error listing the known
-    ones), read from command-line text where ``parse``."""
+def methods_by_strategy() -> str:
+    """``the strategies are continue (--method async, ...), any (--method sync-cut, ...)``."""
+    by: dict[str, list[str]] = {}
+    for name in method_names():
+        by.setdefault(str(get_method(name).strategy), []).append(name)
+    listed = ", ".join(
+        f"{strategy} (--method {' / '.join(names)})" for strategy, names in by.items()
+    )
+    return f"the strategies are {listed}"
+
+
+def setting_names(method: str) -> list[str]:
+    """The settings a run of ``method`` takes as ``key=value`` whatever its task: the run's
+    fields, its method's section, :data:`RUN_SECTIONS` and the task settings every task has
+    (``env.max_ticks``), named as on the command line (``num_envs``, ``ppo.epochs``)."""
+    own = get_method(method).section
+    sections = {**RUN_SECTIONS, own: section_classes()[own], "env": TaskConfig}
+    return _run_fields() + [
+        f"{name}.{f.name}"
+        for name, cls in sections.items()
+        for f in dataclasses.fields(cls)
+        if not (cls is TaskConfig and f.name in OWN_ARGUMENTS)
+    ]
+
+
+def _field_value(
+    cls: type, name: str, given: Any, prefix: str, parse: bool, known: list[str]
+) -> Any:
+    """``given`` for field ``name`` of ``cls`` (an unknown name is an error naming the nearest
+    of the ``known`` settings), read from command-line text where ``parse``."""
     hints = get_type_hints(cls)
     fields = (
         _run_fields() if cls is TrainConfig else sorted(f.name for f in dataclasses.fields(cls))
     )
     if name not in fields:
-        raise ValueError(f"unknown config key {prefix + name!r}; known: {fields}")
+        raise unknown_setting(prefix + name, known)
     return _parse_value(given, hints[name], prefix + name) if parse else given
