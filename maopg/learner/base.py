@@ -95,7 +95,10 @@ class Learner(ABC):
 
     Config: ClassVar[type]
     """The dataclass of its hyper-parameters: the config section ``<section>.<field>=value``.
-    It has a ``validate()`` that raises ``ValueError`` naming a bad field."""
+    It has a ``validate()`` that raises ``ValueError`` naming a bad field, and may have a
+    ``check_task(task_config)`` that does the same for a relation with the run's task settings
+    (:meth:`maopg.learner.sections.MacDQNConfig.check_task`), called before a run builds
+    anything."""
     section: ClassVar[str]
     """Name of its config section (``ppo``, ``dqn``)."""
     columns: ClassVar[tuple[str, ...]]

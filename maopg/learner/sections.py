@@ -16,6 +16,7 @@ from typing import ClassVar
 
 from maopg.policy.choices import EXPLORE_FORMS
 from maopg.settings import Settings, setting
+from maopg.tasks.config import TaskConfig
 
 
 class DiscountForm(enum.StrEnum):
@@ -209,6 +210,17 @@ class MacDQNConfig(Settings):
     Off by default: the joint observation of Tool Delivery is nearly Markov and the feed-forward
     net is several times cheaper on 2 cores."""
 
+    def check_task(self, task: TaskConfig) -> None:
+        """The replay holds each episode whole until it ends (:class:`~maopg.learner.replay.
+        SqueezedReplay`), so ``buffer_size`` must hold the longest: ``env.max_ticks`` decision
+        points, one a tick at most."""
+        if self.buffer_size < task.max_ticks:
+            raise ValueError(
+                f"dqn.buffer_size={self.buffer_size} cannot hold one episode of "
+                f"env.max_ticks={task.max_ticks} ticks: set dqn.buffer_size >= {task.max_ticks} "
+                f"or env.max_ticks <= {self.buffer_size}"
+            )
+
     def epsilon(self, samples: int) -> float:
         """Linear ε schedule over ticks (MacDeepMARL ``Linear_Decay``)."""
         frac = min(1.0, samples / self.eps_decay) if self.eps_decay > 0 else 1.0
@@ -250,6 +262,7 @@ class ACACConfig(Settings):
     slower)."""
 
     def validate(self) -> None:
+        super().validate()
         if self.width % self.heads:
             raise ValueError(
                 f"acac.width ({self.width}) must be a multiple of acac.heads ({self.heads})"
@@ -291,9 +304,6 @@ class MacIAICCConfig(Settings):
     """Episodes of the counter over which ε falls linearly to ``explore_eps_end``."""
     width: int = setting(32, ge=1)
     """Width of every layer of the actors and the critics."""
-
-    def validate(self) -> None:
-        """Every field is checked by its bounds."""
 
     def exploration(self, episodes: int) -> float:
         """ε after ``episodes`` episodes of the counter."""

@@ -1,5 +1,6 @@
 """A user's first mistakes with settings (issue #46), met where the user meets them: an unknown
-setting names the nearest known one, before anything is built or written."""
+setting names the nearest known one, a setting out of range or at odds with another says what
+is allowed, before anything is built or written."""
 
 from __future__ import annotations
 
@@ -7,8 +8,10 @@ import pytest
 
 from maopg.experiment.cli.eval_cli import main as eval_main
 from maopg.experiment.cli.train_cli import main as train_main
+from maopg.experiment.run.config import TrainConfig
 from maopg.experiment.run.methods import Method, register_method
-from maopg.learner import MacDQNConfig
+from maopg.learner import ACACConfig, MacDQNConfig
+from maopg.learner.mac_iaicc import MacIAICCConfig
 from maopg.options.base import Strategy
 
 
@@ -82,3 +85,34 @@ def test_strategy_is_no_setting_and_an_unknown_one_lists_them(capsys):
     method = Method("mine", "sync", "maopg.learner.mappo:MAPPOLearner", "m:f", config=MacDQNConfig)
     with pytest.raises(ValueError, match=f"unknown strategy 'sync'; {known}"):
         register_method(method)
+
+
+def test_too_many_workers_is_an_error_naming_the_range():
+    with pytest.raises(
+        ValueError,
+        match=r"^num_workers=10000 is more than num_envs=4: a worker steps one environment at "
+        r"least, so num_workers may be 0 \(the backend's default\) to 4$",
+    ):
+        TrainConfig(num_workers=10000).resolved()
+    assert TrainConfig(num_workers=4, backend="processes").resolved().num_workers == 4
+
+
+def test_a_replay_that_cannot_hold_an_episode_is_refused_before_anything_runs():
+    small = TrainConfig(method="mac-dqn", learner=MacDQNConfig(buffer_size=100))
+    with pytest.raises(
+        ValueError,
+        match=r"^dqn\.buffer_size=100 cannot hold one episode of env\.max_ticks=150 ticks: set "
+        r"dqn\.buffer_size >= 150 or env\.max_ticks <= 100$",
+    ):
+        small.resolved()
+    small.env_overrides["max_ticks"] = 100
+    assert small.resolved().learner.buffer_size == 100
+
+
+def test_the_round_learners_sections_check_their_bounds():
+    with pytest.raises(ValueError, match=r"^acac\.lr must be > 0, got -1\.0$"):
+        ACACConfig(lr=-1.0)
+    with pytest.raises(ValueError, match=r"^maciaicc\.critic must be one of .*, got 'nope'$"):
+        MacIAICCConfig(critic="nope")
+    with pytest.raises(ValueError, match=r"^acac\.width \(30\) must be a multiple of acac\.heads"):
+        ACACConfig(width=30, heads=4)

@@ -114,7 +114,7 @@ class TrainConfig(Settings):
     :data:`WORKERS_PER_CORE` per core: the operating system then balances option steps of
     uneven length over the cores, where a worker stepping several environments in turn makes
     the others wait; ``bench/perf/lockstep.py``), actors of ``ray`` (0 = one), threads of
-    ``threads`` (at least 2)."""
+    ``threads`` (at least 2). At most ``num_envs``: a worker steps one environment at least."""
     ray: RayOptions = field(default_factory=RayOptions)
     """Where the ``ray`` backend's actors run (``ray.address=auto``; :class:`RayOptions`)."""
     logger: str = setting("tensorboard", choices=LOGGERS)
@@ -223,6 +223,12 @@ class TrainConfig(Settings):
             cfg.backend = "processes" if cfg.num_workers > 1 else defaults["backend"]
         if cfg.backend == "processes" and cfg.num_workers == 0:
             cfg.num_workers = min(cfg.num_envs, WORKERS_PER_CORE * (os.cpu_count() or 1))
+        if cfg.num_workers > cfg.num_envs:
+            raise ValueError(
+                f"num_workers={cfg.num_workers} is more than num_envs={cfg.num_envs}: a worker "
+                f"steps one environment at least, so num_workers may be 0 (the backend's "
+                f"default) to {cfg.num_envs}"
+            )
         if cfg.learner is None:
             cfg.learner = method.default_config(task_learner_defaults(cfg.task, method.section))
         elif not isinstance(cfg.learner, method.config_class):
@@ -239,7 +245,10 @@ class TrainConfig(Settings):
         if cfg.logger == "wandb" and not wandb_available():
             raise ValueError(WANDB_HINT)
         cfg.learner.validate()
-        make_config(cfg.task, cfg.env_overrides)  # the task settings' names and kinds
+        task_settings = make_config(cfg.task, cfg.env_overrides)  # names, kinds and bounds
+        check_task = getattr(cfg.learner, "check_task", None)  # the section's relations to it
+        if check_task is not None:
+            check_task(task_settings)
         from maopg.tasks.base import require_strategy  # MuJoCo, which task_class loads anyway
 
         require_strategy(task_class(cfg.task), cfg.task, cfg.strategy, method=cfg.method)
