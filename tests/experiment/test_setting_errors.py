@@ -1,18 +1,29 @@
 """A user's first mistakes with settings (issue #46), met where the user meets them: an unknown
 setting names the nearest known one, a setting out of range or at odds with another says what
-is allowed, before anything is built or written."""
+is allowed, before anything is built or written; and ``eval``'s ``--threshold`` leaves the run
+directories after it alone."""
 
 from __future__ import annotations
 
+import csv
+import json
+import subprocess
+import sys
+from pathlib import Path
+
 import pytest
 
+from maopg.experiment.cli.eval_cli import build_parser as eval_parser
 from maopg.experiment.cli.eval_cli import main as eval_main
 from maopg.experiment.cli.train_cli import main as train_main
 from maopg.experiment.run.config import TrainConfig
+from maopg.experiment.run.directory import DONE
 from maopg.experiment.run.methods import Method, register_method
 from maopg.learner import ACACConfig, MacDQNConfig
 from maopg.learner.mac_iaicc import MacIAICCConfig
 from maopg.options.base import Strategy
+
+REPO = Path(__file__).resolve().parents[2]
 
 
 def _one_line(err: str, line: str) -> None:
@@ -116,3 +127,58 @@ def test_the_round_learners_sections_check_their_bounds():
         MacIAICCConfig(critic="nope")
     with pytest.raises(ValueError, match=r"^acac\.width \(30\) must be a multiple of acac\.heads"):
         ACACConfig(width=30, heads=4)
+
+
+@pytest.mark.parametrize(("script", "usage"), [("maopg-train", "train"), ("maopg-eval", "eval")])
+def test_the_installed_scripts_usage_names_them(script, usage, tmp_path):
+    """A console script calls ``main()`` with its own name in ``sys.argv[0]``."""
+    path = tmp_path / script
+    path.write_text(
+        f"import sys\nfrom maopg.experiment.cli.{usage}_cli import main\nsys.exit(main())\n"
+    )
+    done = subprocess.run(
+        [sys.executable, str(path), "--help"],
+        capture_output=True,
+        text=True,
+        check=True,
+        cwd=REPO,
+        env={"PYTHONPATH": str(REPO), "PATH": "/usr/bin:/bin"},
+    )
+    assert done.stdout.startswith(f"usage: {script} ")
+    assert f"python -m {usage}" not in done.stdout.split("\n\n")[0]
+
+
+def _finished_run(root: Path, method: str, seed: int, returns: list[float]) -> None:
+    run_dir = root / "tool_delivery" / method / f"seed{seed}"
+    run_dir.mkdir(parents=True)
+    config = {"task": "tool_delivery", "method": method, "seed": seed}
+    (run_dir / "config.json").write_text(json.dumps(config))
+    with (run_dir / "metrics.csv").open("w", newline="") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(["iteration", "samples", "episode_return", "option_step_reward"])
+        for k, value in enumerate(returns, 1):
+            writer.writerow([k, 100 * k, value, value / 10])
+    (run_dir / DONE).write_text("{}")
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["--threshold", "tool_delivery=50", "RUNS"],
+        ["--threshold=tool_delivery=50", "--threshold", "water_filling=-9", "RUNS"],
+        ["RUNS", "--threshold", "tool_delivery=50", "water_filling=-9"],
+        ["--threshold", "tool_delivery=50", "water_filling=-9", "RUNS"],
+        ["--threshold", "tool_delivery=50", "water_filling=-9", "--", "RUNS"],
+    ],
+)
+def test_table_takes_its_runs_after_a_threshold(argv, tmp_path, capsys):
+    root = tmp_path / "runs"
+    _finished_run(root, "async", 0, [10.0, 60.0, 40.0])
+    argv = [str(root) if item == "RUNS" else item for item in argv]
+    assert eval_main(["table", "--window", "1", *argv]) == 0
+    assert "| tool_delivery | async | 50 | 200 | 1/1 |" in capsys.readouterr().out
+
+
+def test_reproduce_keeps_every_threshold():
+    argv = ["reproduce", "--threshold", "tool_delivery=50", "--threshold", "water_filling=-9"]
+    assert eval_parser().parse_args(argv).threshold == ["tool_delivery=50", "water_filling=-9"]

@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Callable, Sequence
+from pathlib import Path
 from typing import Any, NoReturn
 
 from maopg.experiment.run.errors import reporting_user_errors
@@ -38,6 +39,14 @@ class Parser(argparse.ArgumentParser):
     def format_help(self) -> str:
         text = super().format_help()
         return f"{text}{self.more_help()}\n" if self.more_help else text
+
+
+def command_name(module_command: str) -> str:
+    """What the user typed to start the command, for its usage and error lines: the installed
+    script's name (``maopg-train``) when it runs, else ``module_command`` (``python -m train``,
+    a clone's ``train/__main__.py``; also what tests calling ``main`` see)."""
+    script = Path(sys.argv[0]).name
+    return script if script.startswith("maopg-") else module_command
 
 
 def at_least(minimum: int) -> Callable[[str], int]:

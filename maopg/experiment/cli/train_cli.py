@@ -24,7 +24,12 @@ from maopg.sim.egl_check import exit_if_mujoco_cannot_import
 # One line, not PyOpenGL's traceback from the imports below:
 exit_if_mujoco_cannot_import("python -m train")
 
-from maopg.experiment.cli.command_line import Parser, add_common_options, run_command
+from maopg.experiment.cli.command_line import (
+    Parser,
+    add_common_options,
+    command_name,
+    run_command,
+)
 from maopg.experiment.run.config import (
     TrainConfig,
     merge,
@@ -39,7 +44,7 @@ from maopg.experiment.run.settings_reference import settings_help
 from maopg.plugins import load_plugins
 from maopg.tasks import task_names
 
-PROG = "python -m train"
+PROG = command_name("python -m train")
 
 
 def build_parser() -> argparse.ArgumentParser:
