@@ -25,11 +25,12 @@ Relations between fields go in an override of :meth:`Settings.validate` that cal
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import itertools
 import math
 import operator
 import types
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import MISSING, dataclass
 from functools import cache
 from typing import Any, ClassVar, Union, get_args, get_origin, get_type_hints
@@ -68,6 +69,22 @@ class Bounds:
         if self.increasing and any(a >= b for a, b in itertools.pairwise(numbers)):
             return "must increase (low < high)"
         return None
+
+    def describe(self) -> str:
+        """What the bounds allow, as the settings reference lists it (``>= 1``, ``one of a,
+        b``, ``> 0, inf allowed``); empty where they allow anything of the kind."""
+        parts = [
+            f"{word} {bound:g}"
+            for bound, word in ((self.ge, ">="), (self.gt, ">"), (self.le, "<="), (self.lt, "<"))
+            if bound is not None
+        ]
+        if self.choices is not None:
+            parts.append("one of " + ", ".join(str(choice) for choice in self.choices))
+        if self.increasing:
+            parts.append("increasing")
+        if self.infinite:
+            parts.append("inf allowed")
+        return ", ".join(parts)
 
 
 def setting(
@@ -110,17 +127,17 @@ class Settings:
         """Check every field (``ValueError`` naming the first bad one); a config that was changed
         after creation (``TrainConfig.resolved``) calls it again. Overrides add relations
         between fields after ``super().validate()``."""
-        hints = _hints(type(self))
+        hints = field_hints(type(self))
         for item in dataclasses.fields(self):  # type: ignore[arg-type]
             name = self.PREFIX + item.name
             value = getattr(self, item.name)
             hint = hints.get(item.name, Any)
             if not _conforms(value, hint):
-                raise ValueError(f"{name} expected {_describe(hint)}, got {value!r}")
+                raise ValueError(f"{name} expected {describe_kind(hint)}, got {value!r}")
             normal = _as_tuples(value, hint)
             if normal is not value:
                 object.__setattr__(self, item.name, normal)
-            bounds = _bounds(type(self), item.name)
+            bounds = field_bounds(type(self), item.name)
             for x in _numbers(normal):
                 if math.isnan(x) or (math.isinf(x) and not bounds.infinite):
                     raise ValueError(f"{name} must be a finite number, got {value!r}")
@@ -130,8 +147,32 @@ class Settings:
                     raise ValueError(f"{name} {problem}, got {value!r}")
 
 
+NEAR = 0.6
+"""How alike (:class:`difflib.SequenceMatcher` ratio) a known setting's field name must be to
+an unknown one's to be suggested for it (difflib's own default)."""
+
+
+def unknown_setting(name: str, known: Iterable[str], where: str = "") -> ValueError:
+    """The error for a setting ``name`` (``ppo.epoch``) that none of the ``known`` ones is
+    (``where`` says whose: `` of task 'x'``): one line with the known setting whose field name
+    is nearest (``max_tick`` → ``env.max_ticks``; in its own section where two are as near),
+    or the known settings of its section when none is near enough."""
+    known = sorted(set(known))
+    section, _, field = name.rpartition(".")
+
+    def likeness(key: str) -> tuple[float, bool]:
+        own_section, _, own_field = key.rpartition(".")
+        return difflib.SequenceMatcher(None, field, own_field).ratio(), own_section == section
+
+    nearest = max(known, key=likeness, default=None)
+    if nearest is not None and likeness(nearest)[0] >= NEAR:
+        return ValueError(f"unknown setting {name!r}{where}: did you mean {nearest!r}?")
+    same = [key for key in known if key.rpartition(".")[0] == section]
+    return ValueError(f"unknown setting {name!r}{where}; known: {', '.join(same or known)}")
+
+
 @cache
-def _hints(cls: type) -> dict[str, Any]:
+def field_hints(cls: type) -> dict[str, Any]:
     """The fields' annotations; none where they do not resolve at run time (a name imported
     only for type checkers): the kinds then go unchecked, the bounds still apply."""
     try:
@@ -141,7 +182,7 @@ def _hints(cls: type) -> dict[str, Any]:
 
 
 @cache
-def _bounds(cls: type, name: str) -> Bounds:
+def field_bounds(cls: type, name: str) -> Bounds:
     """The bounds the nearest class of ``cls``'s MRO declares for field ``name``."""
     for klass in cls.__mro__:
         declared = getattr(klass, "__dataclass_fields__", {}).get(name)
@@ -207,15 +248,15 @@ def _numbers(value: Any) -> list[float]:
     return []
 
 
-def _describe(hint: Any) -> str:
+def describe_kind(hint: Any) -> str:
     """``int``, ``float or null``, ``[float, float]``: the kind as the error line names it."""
     if _options(hint):
-        return " or ".join(_describe(option) for option in _options(hint))
+        return " or ".join(describe_kind(option) for option in _options(hint))
     if hint is type(None):
         return "null"
     if get_origin(hint) is tuple:
         args = get_args(hint)
         if len(args) == 2 and args[1] is Ellipsis:
-            return f"[{_describe(args[0])}, ...]"
-        return "[" + ", ".join(_describe(a) for a in args) + "]"
+            return f"[{describe_kind(args[0])}, ...]"
+        return "[" + ", ".join(describe_kind(a) for a in args) + "]"
     return getattr(get_origin(hint) or hint, "__name__", str(hint))

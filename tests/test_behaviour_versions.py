@@ -69,7 +69,7 @@ STUDY_SETTINGS = {
 for case in MACHINE_DEPENDENT:
     STUDY_SETTINGS.pop(case, None)
 BUILT_IN_METHODS = [
-    m for m in method_names() if get_method(m).learner.__module__.startswith("maopg.")
+    m for m in method_names() if get_method(m).learner_class.__module__.startswith("maopg.")
 ]
 
 
@@ -151,7 +151,7 @@ def policy_fingerprint(method_name: str) -> tuple[str, int]:
         finally:
             env.close()
         for greedy in (True, False):
-            actor = method.learner.actor(policy, config, greedy=greedy, seed=0)
+            actor = method.learner_class.actor(policy, config, greedy=greedy, seed=0)
             records.append([np.asarray(actor(p)).tolist() for p in points[:-1]])
     digest = hashlib.sha256(json.dumps(records).encode()).hexdigest()
     return digest, type(policy).behaviour_version

@@ -1,13 +1,30 @@
-"""Option-level environments: the scheduler, its contract and the PettingZoo adapter."""
+"""Option-level environments: the scheduler, its contract and the PettingZoo adapter.
+
+The contract's classes and :class:`OptionEnv` are imported on first use (:mod:`maopg.exports`):
+what a run's config reads here (:data:`OWN_ARGUMENTS`, the ``ray.*`` settings of
+:mod:`.ray_options`) loads without numpy or MuJoCo."""
 
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from maopg.env.contract import AgentSpec, DecisionPoint, EnvSpec, Strategy
-from maopg.env.option_env import OptionEnv
+from maopg.exports import lazy_exports
+from maopg.options.base import Strategy
 from maopg.tasks import load
+
+if TYPE_CHECKING:
+    from maopg.env.option_env import OptionEnv
+
+_, __getattr__, __dir__ = lazy_exports(
+    __name__,
+    (
+        "maopg.env.contract:AgentSpec",
+        "maopg.env.contract:DecisionPoint",
+        "maopg.env.contract:EnvSpec",
+        "maopg.env.option_env:OptionEnv",
+    ),
+)
 
 OWN_ARGUMENTS = {
     "images": "the run's images (images=true, --images)",
@@ -42,6 +59,8 @@ def make_env(
 
     ``primitive`` strategy switches the task to its one-tick primitive actions.
     """
+    from maopg.env.option_env import OptionEnv
+
     strategy = Strategy(strategy)
     check_overrides(overrides or {})
     config = {

@@ -37,7 +37,6 @@ decision of an agent is trained on, including one whose option the episode's end
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
@@ -50,50 +49,9 @@ from maopg.learner.base import (
 )
 from maopg.learner.gae import DiscountForm, compute_gae
 from maopg.learner.rounds import Episodes, RoundsLearner
+from maopg.learner.sections import ACACConfig
 from maopg.policy.agent_centric import AgentCentricCritic, AgentCentricPolicy, scan
 from maopg.policy.joint_size import BuildTarget
-from maopg.settings import Settings, setting
-
-
-@dataclass
-class ACACConfig(Settings):
-    """The ``acac.*`` settings; defaults are the published runs' (Box Pushing, reference §10)."""
-
-    lr: float = setting(3e-4, gt=0.0)
-    """Each actor's Adam learning rate."""
-    critic_lr: float = setting(3e-4, gt=0.0)
-    clip: float = setting(0.05, gt=0.0)
-    """PPO's ratio clip."""
-    train_repeat: int = setting(2, ge=1)
-    """Full-batch gradient steps of the critic and of each actor per round."""
-    gae_lambda: float = setting(0.95, ge=0.0, le=1.0)
-    episodes_per_update: int = setting(16, ge=1)
-    """Finished episodes a round waits for and trains on (the last ones to finish)."""
-    target_every: int = setting(64, ge=1)
-    """Episodes of the counter between copies of the critic into the target critic."""
-    explore_eps: float = setting(1.0, ge=0.0, le=1.0)
-    """ε of the mixture at the first round (0: no exploration)."""
-    explore_eps_end: float = setting(0.01, ge=0.0, le=1.0)
-    explore_decay: int = setting(30_000, ge=1)
-    """Episodes of the counter over which ε falls linearly to ``explore_eps_end``."""
-    width: int = setting(32, ge=1)
-    """Width of every layer of the actors and the critic."""
-    heads: int = setting(2, ge=1)
-    """Attention heads of the critic (``width`` must be a multiple)."""
-    popart_beta: float = setting(0.99999, gt=0.0, lt=1.0)
-
-    def validate(self) -> None:
-        if self.width % self.heads:
-            raise ValueError(
-                f"acac.width ({self.width}) must be a multiple of acac.heads ({self.heads})"
-            )
-
-    def exploration(self, episodes: int) -> float:
-        """ε after ``episodes`` episodes of the counter."""
-        if not self.explore_eps:
-            return 0.0
-        fraction = min(episodes / self.explore_decay, 1.0)
-        return self.explore_eps + (self.explore_eps_end - self.explore_eps) * fraction
 
 
 class ACACLearner(RoundsLearner):

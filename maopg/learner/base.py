@@ -22,6 +22,7 @@ from torch import Tensor, nn
 
 from maopg.env.contract import DecisionPoint, EnvSpec
 from maopg.env.vector import SeededVectorEnv
+from maopg.learner.errors import NonFiniteError
 from maopg.policy import set_precision
 
 CPU = torch.device("cpu")
@@ -43,11 +44,6 @@ paper's metric — the two are different quantities and must not be compared."""
 
 Actor = Callable[[DecisionPoint], np.ndarray]
 """A trained policy in the ``DecisionPoint -> joint option`` protocol of evaluation and video."""
-
-
-class NonFiniteError(FloatingPointError):
-    """A loss, gradient or parameter became NaN or infinite: training from there would only
-    spread it through every weight (and be checkpointed), so the learner stops at once."""
 
 
 def require_finite(value: Tensor, what: str) -> None:
@@ -99,7 +95,10 @@ class Learner(ABC):
 
     Config: ClassVar[type]
     """The dataclass of its hyper-parameters: the config section ``<section>.<field>=value``.
-    It has a ``validate()`` that raises ``ValueError`` naming a bad field."""
+    It has a ``validate()`` that raises ``ValueError`` naming a bad field, and may have a
+    ``check_task(task_config)`` that does the same for a relation with the run's task settings
+    (:meth:`maopg.learner.sections.MacDQNConfig.check_task`), called before a run builds
+    anything."""
     section: ClassVar[str]
     """Name of its config section (``ppo``, ``dqn``)."""
     columns: ClassVar[tuple[str, ...]]

@@ -48,14 +48,12 @@ from typing import Any
 import numpy as np
 import torch
 
+from maopg.learner.errors import CheckpointError
+
 CHECKSUM_KEY = "sha256"
 """The entry holding :func:`state_digest` of the rest of the checkpoint (a plain string)."""
 TENSORS_CHECKSUM_KEY = "tensors_sha256"
 """Where checkpoints of earlier releases hold :func:`tensors_digest` of their tensors alone."""
-
-
-class CheckpointError(RuntimeError):
-    """A checkpoint file is missing, truncated, corrupt, or not one of ours."""
 
 
 def on_cpu(value: Any) -> Any:

@@ -35,17 +35,9 @@ option step of the same episode); the caller sets it to ``False`` on the last ro
 
 from __future__ import annotations
 
-import enum
-
 import numpy as np
 
-
-class DiscountForm(enum.StrEnum):
-    """How the learner discounts across an option step."""
-
-    SMDP = "smdp"
-    EVENT = "event"
-    OPTION = "option"
+from maopg.learner.sections import DiscountForm
 
 
 def compute_gae(

@@ -48,40 +48,12 @@ from maopg.learner.base import (
     LearnerSetup,
 )
 from maopg.learner.rounds import Episodes, RoundsLearner
+from maopg.learner.sections import MacIAICCConfig
 from maopg.policy import ObsBatch
 from maopg.policy.agent_centric import AgentCentricPolicy, AgentInput, leaky_mlp, linear, scan
 from maopg.policy.batch import vector_slices
 from maopg.policy.encoders import NatureCNN
 from maopg.policy.joint_size import BuildTarget
-from maopg.settings import Settings, setting
-
-CRITICS = ("history", "own", "joint")
-
-
-@dataclass
-class MacIAICCConfig(Settings):
-    """The ``maciaicc.*`` settings; defaults are MacroMARL's Mac-IAICC on 6x6 Box Pushing."""
-
-    critic: str = setting("history", choices=CRITICS)
-    """``history``: Mac-IAICC; ``own``: Mac-IAC; ``joint``: Naive Mac-IACC (module docstring)."""
-    lr: float = setting(3e-4, gt=0.0)
-    critic_lr: float = setting(3e-3, gt=0.0)
-    episodes_per_update: int = setting(32, ge=1)
-    target_every: int = setting(128, ge=1)
-    explore_eps: float = setting(1.0, ge=0.0, le=1.0)
-    explore_eps_end: float = setting(0.01, ge=0.0, le=1.0)
-    explore_decay: int = setting(4_000, ge=1)
-    width: int = setting(32, ge=1)
-
-    def validate(self) -> None:
-        """Every field is checked by its bounds."""
-
-    def exploration(self, episodes: int) -> float:
-        """ε after ``episodes`` episodes of the counter."""
-        if not self.explore_eps:
-            return 0.0
-        fraction = min(episodes / self.explore_decay, 1.0)
-        return self.explore_eps + (self.explore_eps_end - self.explore_eps) * fraction
 
 
 class JointInput(nn.Module):

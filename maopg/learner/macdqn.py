@@ -30,7 +30,6 @@ from __future__ import annotations
 
 import copy
 from collections.abc import Sequence
-from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import torch
@@ -49,6 +48,7 @@ from maopg.learner.base import (
     require_finite_parameters,
 )
 from maopg.learner.replay import SqueezedReplay, point_arrays
+from maopg.learner.sections import MacDQNConfig
 from maopg.policy import (
     JointQNetwork,
     ObsBatch,
@@ -59,70 +59,6 @@ from maopg.policy import (
     stack_conditions,
 )
 from maopg.policy.joint_size import BuildTarget, require_joint_head_fits
-from maopg.settings import Settings, setting
-
-
-@dataclass(frozen=True)
-class MacDQNConfig(Settings):
-    """Mac-DQN's own hyper-parameters (the ``dqn`` section of ``train``'s config). Durations are
-    in low-level ticks (samples), as everywhere here.
-
-    The discount and the network size are not here: they are the run's ``gamma`` (which also
-    discounts the environment's rewards, so the two cannot disagree), ``hidden`` and ``layers``,
-    shared with MAPPO so both methods optimise the same objective with the same encoders
-    (docs/DESIGN.md §5; MacDeepMARL's TD command used ``--rnn_h_size=128`` too, and γ = 1.0 per
-    macro-step where we use 0.99 per tick). Each field declares its bounds
-    (:mod:`maopg.settings`).
-    """
-
-    PREFIX: ClassVar[str] = "dqn."
-
-    lr: float = setting(6e-4, gt=0.0)
-    """Adam step size: MacDeepMARL TD command ``--l_rate=0.0006``."""
-    batch_size: int = setting(64, ge=1)
-    """Transitions per update (feed-forward). Chosen here (the original samples whole episodes)."""
-    batch_episodes: int = setting(16, ge=1)
-    """Episodes per update (recurrent): MacDeepMARL TD command ``--batch_size=16 --sample_epi``."""
-    buffer_size: int = setting(50_000, ge=1)
-    """Decision-point transitions kept. The original kept 1,000 episodes
-    (``--replay_buffer_size=1000``), about 30-60K decision points on Tool Delivery."""
-    learning_starts: int = setting(1_000, ge=0)
-    """Ticks collected before the first update. Chosen here (original: 2 episodes, ~300 ticks)."""
-    train_every: int = setting(5, ge=1)
-    """Ticks between updates. Chosen here to keep MacDeepMARL's replay ratio: its TD command
-    (``--train_freq=30 --batch_size=16 --sample_epi``) replays 16 episodes of ~40 decision
-    points every 30 ticks (~20 transitions per tick); 64 rows every 5 ticks is ~13. With
-    ``recurrent`` (16 whole episodes per update) use the original 30."""
-    target_update_every: int = setting(1_000, ge=1)
-    """Ticks between target-network syncs. Chosen here: MacDeepMARL's default
-    ``--target_update_freq=5000`` spans ~170 of its updates; 1,000 ticks spans 200 of ours."""
-    eps_start: float = setting(1.0, ge=0.0, le=1.0)
-    """MacDeepMARL ``EPS_START``."""
-    eps_end: float = setting(0.1, ge=0.0, le=1.0)
-    """MacDeepMARL ``EPS_END``."""
-    eps_decay: int = setting(15_000, ge=0)
-    """Ticks of the linear ε decay. Chosen here: the original decays over 6,000 *episodes*
-    (``--eps_l_d_steps=6000``, ~0.5-0.9M ticks), far beyond our budgets."""
-    huber_delta: float = setting(10.0, gt=0.0, infinite=True)
-    """Huber TD loss. Chosen here (original: squared error unless ``--huber_l``); δ as MAPPO's
-    value loss (docs/DESIGN.md §5), so ±100 delivery rewards do not dominate the gradient."""
-    max_grad_norm: float = setting(10.0, gt=0.0, infinite=True)
-    """Gradient-norm clip. Chosen here (original: off unless ``--g_clip_norm``), as MAPPO."""
-    reward_scale: float = setting(1.0, gt=0.0)
-    """Factor on every reward the Q-network learns from, so Q-values (and ``q_mean`` in the log)
-    are in scaled units; the greedy option is unchanged by a positive factor. ``huber_delta``
-    and ``max_grad_norm`` were chosen for Tool Delivery's ±100 rewards: Water Filling's are
-    ~-10³ per tick, where ``1e-3`` brings them to the same scale.
-    MAPPO needs no such factor: its value normalisation rescales the returns."""
-    recurrent: bool = False
-    """GRU over the option-level history (the original used an LSTM over squeezed episodes).
-    Off by default: the joint observation of Tool Delivery is nearly Markov and the feed-forward
-    net is several times cheaper on 2 cores."""
-
-    def epsilon(self, samples: int) -> float:
-        """Linear ε schedule over ticks (MacDeepMARL ``Linear_Decay``)."""
-        frac = min(1.0, samples / self.eps_decay) if self.eps_decay > 0 else 1.0
-        return self.eps_start + frac * (self.eps_end - self.eps_start)
 
 
 # ---------------------------------------------------------------------------- the target

@@ -42,7 +42,7 @@ from maopg.learner.base import (
 )
 from maopg.learner.beside import Beside
 from maopg.learner.buffer import Memory, Rollout, TrainBatch
-from maopg.learner.gae import DiscountForm
+from maopg.learner.sections import PPOConfig
 from maopg.learner.value_norm import ValueNorm
 from maopg.policy import (
     AutoregressivePolicy,
@@ -60,119 +60,7 @@ from maopg.policy import (
     set_precision,
     stack_conditions,
 )
-from maopg.policy.conditional import EXPLORE_FORMS
 from maopg.policy.joint_size import BuildTarget, require_joint_head_fits
-from maopg.settings import Settings, setting
-
-
-@dataclass(frozen=True)
-class PPOConfig(Settings):
-    """MAPPO's hyper-parameters: the config section ``ppo`` (defaults: the MAPPO reference,
-    docs/DESIGN.md §5). The discount γ is the run's ``gamma`` (it also discounts the
-    environment's rewards), the network size its ``hidden`` and ``layers``. Each field declares
-    its bounds (:mod:`maopg.settings`); inf means "no limit" for the clip ranges and bounds."""
-
-    PREFIX: ClassVar[str] = "ppo."
-
-    epochs: int = setting(10, ge=1)
-    num_minibatches: int = setting(1, ge=1)
-    clip: float = setting(0.2, ge=0.0, infinite=True)
-    value_clip: float = setting(0.2, ge=0.0, infinite=True)
-    huber_delta: float = setting(10.0, gt=0.0, infinite=True)
-    ent_coef: float = 0.01
-    """The entropy bonus's weight (from the first update on, with ``ent_decay``)."""
-    ent_coef_end: float = setting(0.0, ge=0.0)
-    """With ``ent_decay``: the weight the bonus falls to, and keeps after ``ent_decay`` ticks."""
-    ent_decay: int = setting(0, ge=0)
-    """Ticks over which the entropy bonus's weight falls linearly from ``ent_coef`` to
-    ``ent_coef_end`` (as Mac-DQN's ε falls over ``dqn.eps_decay``, except at 0, which here
-    means no decay: ``ent_coef`` throughout). Annealing is a common way to let a policy end
-    sure of its choices; on Water Filling it left recurrent ``async`` as soft as before."""
-    value_coef: float = setting(1.0, ge=0.0)
-    lr: float = setting(5e-4, gt=0.0)
-    critic_lr: float = setting(5e-4, gt=0.0)
-    adam_eps: float = setting(1e-5, ge=0.0)
-    max_grad_norm: float = setting(10.0, gt=0.0, infinite=True)
-    normalize_advantages: bool = True
-    gae_lambda: float = setting(0.95, ge=0.0, le=1.0)
-    discount: str = setting(DiscountForm.SMDP.value, choices=[f.value for f in DiscountForm])
-    """``smdp`` (γ^k per option step, default) or ``option`` (the paper's γ per option step)."""
-    value_norm: bool = True
-    """Running mean/var normalisation of the critic's targets."""
-    recurrent: bool = False
-    """A GRU over the option-level history in the policy and the critic (rMAPPO; the same key
-    as ``dqn.recurrent``): the policy's state advances at its decision points (a partially
-    centralized policy's per-agent state only at that agent's own), the critic's at every one,
-    and both restart with each episode. Off by default: feed-forward is cheaper, and the
-    committed grid is feed-forward."""
-    option_history: bool = False
-    """Recurrent only: the GRUs also read each agent's option and who chooses at every point
-    (:mod:`maopg.policy.memory`, "Option history"), the macro-action-observation histories of
-    the literature; off, they read the encoders' features alone (the committed ``memory``
-    study's runs)."""
-    memory_norm: bool = False
-    """Recurrent only: layer-normalise each GRU's input features and its output, as rMAPPO
-    does (:mod:`maopg.policy.memory`, "Normalisation"); off, the GRUs read the encoders'
-    unnormalised features (the committed ``memory`` study's runs)."""
-    chunk_length: int = setting(10, ge=1)
-    """Recurrent only: consecutive decision points per training chunk, the horizon of truncated
-    backpropagation through time (rMAPPO's ``data_chunk_length``); minibatches are sets of
-    chunks, each re-run from the state it was collected with."""
-
-    explore_eps: float = setting(0.0, ge=0.0, le=1.0)
-    """Exploration by ε-mixed sampling: the weight ε of the uniform distribution over the
-    available options mixed into the policy's conditional while collecting (per choosing agent
-    or over the joint option: ``explore_form``), at the start of training; 0 (the default)
-    turns exploration off, whatever ``explore_eps_end`` says, and collects from the policy
-    itself. Evaluation never mixes. It is how the policy may find a reward its own samples
-    miss once an easy one has made them sure (Box Pushing's big box, whose training defaults
-    turn it on: ``docs/results/exploration.md``)."""
-    explore_eps_end: float = setting(0.0, ge=0.0, le=1.0)
-    """The ε that ``explore_eps`` falls to linearly over ``explore_decay``, and keeps after."""
-    explore_decay: int = setting(0, ge=0)
-    """How long ε falls from ``explore_eps`` to ``explore_eps_end``, counted in
-    ``explore_unit``s (0: ``explore_eps`` throughout, as ``ent_decay``)."""
-    explore_unit: str = setting("samples", choices=("samples", "episodes"))
-    """What ``explore_decay`` counts: low-level ticks trained on, or training episodes
-    finished (ACAC's published schedule: ε from 1.0 to 0.01 over 30,000 episodes)."""
-    explore_form: str = setting("agent", choices=EXPLORE_FORMS)
-    """How the uniform is mixed in: into each choosing agent's chain-rule factor (``agent``,
-    :class:`~maopg.policy.EpsilonMixture`; ACAC's, whose actors are per agent), or into the
-    joint option (``joint``, :class:`~maopg.policy.JointMixture`: with probability ε every
-    choosing agent explores at once, and for the product categorical of ``async`` a failed
-    lone move lowers only the joint option it was part of)."""
-    explore_ratio: str = setting("mixture", choices=("mixture", "policy"))
-    """The probabilities in PPO's ratio while exploring: ``mixture`` — the mixed ones, for the
-    acting and the updated policy alike (ACAC's; the update is on-policy for the behaviour
-    that collected the batch, but an option the policy has all but dropped gets all but no
-    gradient, since the mixture's probability of it hardly depends on the policy's), or
-    ``policy`` — the policy's own, as if it had chosen every option itself (biased, but an
-    explored option that paid gets the full push of its advantage)."""
-
-    def validate(self) -> None:
-        super().validate()
-        for name in ("option_history", "memory_norm"):
-            if getattr(self, name) and not self.recurrent:
-                raise ValueError(
-                    f"ppo.{name}=true is a part of the GRUs: it needs ppo.recurrent=true"
-                )
-
-    def exploration(self, samples: int, episodes: int) -> float:
-        """ε for a rollout collected after ``samples`` ticks and ``episodes`` finished training
-        episodes (``explore_*``)."""
-        done = samples if self.explore_unit == "samples" else episodes
-        if self.explore_decay == 0 or self.explore_eps == 0.0:
-            return self.explore_eps
-        frac = min(1.0, done / self.explore_decay)
-        return self.explore_eps + frac * (self.explore_eps_end - self.explore_eps)
-
-    def entropy_coef(self, samples: int) -> float:
-        """The entropy bonus's weight in the update after ``samples`` ticks (``ent_decay``)."""
-        if self.ent_decay == 0:
-            return self.ent_coef
-        if samples >= self.ent_decay:
-            return self.ent_coef_end
-        return self.ent_coef + samples / self.ent_decay * (self.ent_coef_end - self.ent_coef)
 
 
 @dataclass

@@ -33,6 +33,12 @@ class Strategy(enum.StrEnum):
     ALL = "all"
     PRIMITIVE = "primitive"
 
+    @classmethod
+    def _missing_(cls, value: object) -> Strategy:
+        """A name that is none of them: the error lists those that are."""
+        known = ", ".join(strategy.value for strategy in cls)
+        raise ValueError(f"unknown strategy {value!r}; the strategies are: {known}")
+
 
 class AgentControl(Protocol):
     """What every option may ask of its task."""

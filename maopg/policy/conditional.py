@@ -30,6 +30,8 @@ from typing import Protocol, runtime_checkable
 import torch
 from torch import Tensor
 
+from maopg.policy.choices import EXPLORE_FORMS
+
 
 class JointOptionDistribution(Protocol):
     """What a policy hands to a learner for one batch of decision points.
@@ -453,10 +455,6 @@ class JointMixture:
 
     def mode(self) -> Tensor:
         return self.base.mode()
-
-
-EXPLORE_FORMS = ("agent", "joint")
-"""How exploration mixes the uniform in: per choosing agent's factor, or over the joint."""
 
 
 def explore(

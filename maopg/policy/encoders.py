@@ -17,6 +17,7 @@ from torch import Tensor, nn
 
 from maopg.env.contract import EnvSpec
 from maopg.policy.batch import ObsBatch, compact_bank, vector_slices
+from maopg.policy.choices import PRECISION_NAMES
 
 __all__ = [
     "PRECISIONS",
@@ -30,7 +31,9 @@ __all__ = [
 
 RELU_GAIN = math.sqrt(2.0)
 
-PRECISIONS: dict[str, torch.dtype] = {"fp32": torch.float32, "bf16": torch.bfloat16}
+PRECISIONS: dict[str, torch.dtype] = dict(
+    zip(PRECISION_NAMES, (torch.float32, torch.bfloat16), strict=True)
+)
 """The ``precision`` setting → the dtype the CNNs compute in (:func:`set_precision`)."""
 
 

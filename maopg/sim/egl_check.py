@@ -8,7 +8,8 @@ of deep inside the first render.
 library, a display for ``glfw`` — which a run that will render checks before it writes
 anything, and :func:`exit_if_mujoco_cannot_import` the part of it that stops ``import mujoco``
 itself, which the command lines check before they import anything that imports MuJoCo. Neither
-imports MuJoCo.
+imports MuJoCo; nor does :class:`RenderError`, what a renderer raises when GL fails it, so the
+command lines know it as a user's error without loading MuJoCo.
 """
 
 from __future__ import annotations
@@ -22,6 +23,11 @@ import sys
 import maopg  # sets MUJOCO_GL=egl before mujoco is imported; shadowed_package reads it
 
 APT_LINE = "sudo apt-get update && sudo apt-get install -y libegl1 libegl-mesa0 libgl1-mesa-dri"
+
+
+class RenderError(RuntimeError):
+    """MuJoCo could not make a renderer: the machine's GL setup (``MUJOCO_GL``, its libraries,
+    a display) or a frame size it cannot hold, not the code — a user error on a command line."""
 
 
 GL_BACKENDS = ("egl", "osmesa", "glfw")

@@ -31,7 +31,7 @@ import numpy as np
 
 import maopg  # noqa: F401  (sets MUJOCO_GL=egl before mujoco renders)
 from maopg.sim.culling import cull_outside_view
-from maopg.sim.egl_check import gl_problem
+from maopg.sim.egl_check import RenderError, gl_problem
 
 GL_LOCK = threading.RLock()
 """Held by every GL call of this module (see the module docstring for why)."""
@@ -75,11 +75,6 @@ def make_renderer(
     renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = shadows
     renderer.scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = shadows
     return renderer
-
-
-class RenderError(RuntimeError):
-    """MuJoCo could not make a renderer: the machine's GL setup (``MUJOCO_GL``, its libraries,
-    a display) or a frame size it cannot hold, not the code — a user error on a command line."""
 
 
 _OPEN: weakref.WeakSet[CameraRenderer] = weakref.WeakSet()

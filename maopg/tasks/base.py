@@ -32,67 +32,21 @@ position inside the arena) belongs in the task's constructor, before it compiles
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from collections.abc import Sequence
 from typing import Any, ClassVar
 
 import numpy as np
 
 from maopg.options.base import Option, Strategy
-from maopg.settings import Settings, setting
 from maopg.sim.render import CameraRenderer
-from maopg.sim.robots import RobotAdapter, require_role
+from maopg.sim.robots import RobotAdapter
 from maopg.sim.scene import Scene
+from maopg.tasks.config import (  # noqa: F401  (a task module finds its config's bases here too)
+    MAX_IMAGE_SIZE,
+    SceneTaskConfig,
+    TaskConfig,
+)
 from maopg.tasks.layout import ObsLayout
-
-MAX_IMAGE_SIZE = 4096
-"""The largest camera image (px a side) a config accepts: far beyond what an observation needs,
-and within what every GL implementation renders offscreen (OpenGL 3.3 guarantees 4096-pixel
-render targets; Mesa's llvmpipe allows 16384)."""
-
-
-@dataclass(frozen=True)
-class TaskConfig(Settings):
-    """Settings shared by every task; tasks extend it with their own fields. Command lines and
-    config files write them ``env.NAME``."""
-
-    PREFIX: ClassVar[str] = "env."
-
-    max_ticks: int = setting(150, ge=1)
-    images: bool = False
-    """Render each agent's camera into the observation."""
-    image_size: int = setting(64, ge=1, le=MAX_IMAGE_SIZE)
-    primitive: bool = False
-    """Give agents one-tick primitive actions instead of options (end2end baseline)."""
-
-
-@dataclass(frozen=True)
-class SceneTaskConfig(TaskConfig):
-    """The settings of a task that ticks a MuJoCo scene: a tick is a whole number of physics
-    steps (the scene refuses anything else mid-episode, so the config refuses it up front)."""
-
-    ROBOT_ROLES: ClassVar[Mapping[str, str]] = {}
-    """The fields that name a registered robot, each with the role (``ground``, ``drone``,
-    ``arm``: :data:`maopg.sim.robots.ROLES`) its robot must play: a robot of another role is
-    refused when the config is made, naming the setting and the robots allowed there."""
-
-    tick_seconds: float = setting(1.0, gt=0.0)
-    """Simulated time of one tick, one low-level step (s)."""
-    timestep: float = setting(0.002, gt=0.0)
-    """Physics step (s)."""
-
-    def validate(self) -> None:
-        super().validate()
-        steps = round(self.tick_seconds / self.timestep)
-        if steps < 1 or abs(steps * self.timestep - self.tick_seconds) > 1e-6 * max(
-            1.0, self.tick_seconds
-        ):
-            raise ValueError(
-                f"env.tick_seconds={self.tick_seconds} is not a whole number of "
-                f"env.timestep={self.timestep} physics steps"
-            )
-        for field, role in self.ROBOT_ROLES.items():
-            require_role(self.PREFIX + field, getattr(self, field), role)
 
 
 class Task(ABC):

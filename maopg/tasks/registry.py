@@ -9,40 +9,28 @@ return threshold, settings of one method's runs) belongs to the study
 imported on first use, so registering a task imports none of its simulation code.
 
 ``make_config`` validates overrides against the config's fields, so a typo fails loudly with the
-list of valid keys instead of being silently ignored; the config checks each value's kind and
+nearest valid key instead of being silently ignored; the config checks each value's kind and
 bounds itself (:class:`maopg.settings.Settings`).
 """
 
 from __future__ import annotations
 
 import dataclasses
-import importlib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from maopg.tasks.base import Task, TaskConfig
-from maopg.tasks.scripting import ScriptedFactory
+from maopg.exports import resolve
+from maopg.settings import unknown_setting
+from maopg.tasks.config import TaskConfig
+
+if TYPE_CHECKING:
+    from maopg.tasks.base import Task
+    from maopg.tasks.scripting import ScriptedFactory
 
 StateLines = Callable[[Mapping[str, Any]], list[str]]
 """Formats a ``Task.describe()`` dict as the video panel's lines."""
-
-
-def _resolve(ref: Any) -> Any:
-    """Import ``"package.module:Attr.attr"`` lazily; any other value is returned as is."""
-    if not isinstance(ref, str):
-        return ref
-    module, sep, path = ref.partition(":")
-    if not sep or not path:
-        raise ValueError(f"expected 'package.module:Attr', got {ref!r}")
-    value: Any = importlib.import_module(module)
-    for attr in path.split("."):
-        try:
-            value = getattr(value, attr)
-        except AttributeError:
-            raise ValueError(f"{ref!r}: {type(value).__name__} has no attribute {attr!r}") from None
-    return value
 
 
 @dataclass(frozen=True)
@@ -67,22 +55,24 @@ class TaskEntry:
     class registered as several tasks: each wrapped PettingZoo environment, say)."""
 
     def task_class(self) -> type[Task]:
-        cls = _resolve(self.task)
+        from maopg.tasks.base import Task  # MuJoCo: only once a task is built
+
+        cls = resolve(self.task)
         if not (isinstance(cls, type) and issubclass(cls, Task)):
             raise TypeError(f"task {self.name!r}: {self.task!r} is not a Task class")
         return cls
 
     def config_class(self) -> type[TaskConfig]:
-        cls = _resolve(self.config)
+        cls = resolve(self.config)
         if not (isinstance(cls, type) and issubclass(cls, TaskConfig)):
             raise TypeError(f"task {self.name!r}: {self.config!r} is not a TaskConfig dataclass")
         return cls
 
     def scripted_factory(self) -> ScriptedFactory | None:
-        return _resolve(self.scripted)
+        return resolve(self.scripted)
 
     def state_lines_fn(self) -> StateLines | None:
-        return _resolve(self.state_lines)
+        return resolve(self.state_lines)
 
 
 _TASKS: dict[str, TaskEntry] = {}
@@ -161,18 +151,17 @@ def task_class(name: str) -> type[Task]:
 
 def make_config(name: str, overrides: Mapping[str, Any] | None = None) -> TaskConfig:
     """The task's default config (its registration's ``defaults`` applied) with ``overrides``
-    applied. Unknown keys are an error, and so is a value of the wrong kind or out of the
-    field's declared bounds (:class:`maopg.settings.Settings`: ``max_ticks="abc"`` would
-    otherwise fail mid-episode)."""
+    applied. An unknown key is an error naming the nearest known one, and so is a value of the
+    wrong kind or out of the field's declared bounds (:class:`maopg.settings.Settings`:
+    ``max_ticks="abc"`` would otherwise fail mid-episode)."""
     entry = task_entry(name)
     config = entry.config_class()()
     overrides = {**entry.defaults, **(overrides or {})}
     fields = {f.name for f in dataclasses.fields(config)}
     unknown = sorted(set(overrides) - fields)
     if unknown:
-        raise ValueError(
-            f"unknown config key(s) {unknown} for task {name!r}; valid keys: {sorted(fields)}"
-        )
+        known = [f"{TaskConfig.PREFIX}{field}" for field in fields]
+        raise unknown_setting(f"{TaskConfig.PREFIX}{unknown[0]}", known, f" of task {name!r}")
     return dataclasses.replace(config, **overrides)
 
 

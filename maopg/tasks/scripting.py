@@ -15,7 +15,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from maopg.options.base import Option, option_index
-from maopg.tasks.base import TaskConfig
+from maopg.tasks.config import TaskConfig
 
 
 class DecisionView(Protocol):

@@ -221,7 +221,7 @@ def _status(argv: list[str]) -> int:
     [
         ("ray.cpus_per_actor=0", r"ray\.cpus_per_actor must be > 0"),
         ("ray.max_replacements=-1", r"ray\.max_replacements must be >= 0"),
-        ("ray.adress=auto", r"unknown config key 'ray\.adress'"),
+        ("ray.adress=auto", r"unknown setting 'ray\.adress': did you mean 'ray\.address'"),
         ("ray.direct=maybe", r"ray\.direct expected bool, got 'maybe'"),
         ("ray.address=nowhere", r"ray\.address='nowhere': expected HOST:PORT"),
         ("ray.address=127.0.0.1:1", r"ray\.address='127\.0\.0\.1:1': no Ray cluster answers"),

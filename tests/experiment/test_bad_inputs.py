@@ -77,7 +77,7 @@ BAD_TRAIN = [
     (["env.step_reward=nan"], r"env\.step_reward must be a finite number, got nan"),
     (["logger=mlflow"], r"logger must be one of \['tensorboard', 'wandb'\]"),
     (["wandb.mode=cloud"], r"wandb\.mode must be one of \['online', 'offline'\]"),
-    (["wandb.projekt=x"], r"unknown config key 'wandb\.projekt'"),
+    (["wandb.projekt=x"], r"unknown setting 'wandb\.projekt': did you mean 'wandb\.project'"),
     (["--method", "mac-dqn", "dqn.eps_end=2"], r"dqn\.eps_end must be <= 1, got 2"),
     (["--seed", "1", "seed=2"], r"--seed 1 contradicts seed=2"),
     (["--method", "async", "method=partial"], r"--method async contradicts method=partial"),
@@ -121,7 +121,7 @@ BAD_EVAL = [
     (["evaluate", "--reference", "random", "--strategy", "eventually"], r"--strategy: invalid"),
     (["video", "--reference", "random", "--fps", "0", "--out", "x.mp4"], r"--fps: must be >= 1"),
     (["reproduce", "--dry-run", "--set", "ppo.epochs=2"], r"--set is retired: .* ppo\.epochs=2"),
-    (["reproduce", "--dry-run", "ppo.epochz=2"], r"unknown config key 'ppo\.epochz'"),
+    (["reproduce", "--dry-run", "ppo.epochz=2"], r"unknown setting 'ppo\.epochz': did you mean"),
     (
         ["reproduce", "--dry-run", "seed=3"],
         r"tool_delivery/async: seed=3 contradicts the grid's cell \(seed \d+\)",
@@ -255,7 +255,7 @@ def test_yaml_and_json_files_resolve_as_key_value_does(tmp_path):
     [
         ("seed: [1\n", r"run\.yaml is not valid YAML"),
         ("- 1\n", r"run\.yaml: expected a mapping of settings, got list"),
-        ("ppo.epochz: 2\n", r"unknown config key"),
+        ("ppo.epochz: 2\n", r"unknown setting 'ppo\.epochz': did you mean 'ppo\.epochs'\?"),
         ("dqn:\n  lr: 1.0\n", r"do not belong to method 'async'"),
         ("env:\n  max_ticks: -1\n", r"env\.max_ticks must be >= 1, got -1"),
         ("seed: 2\n", None),  # a file's value may be repeated by a flag ...

@@ -21,7 +21,7 @@ from maopg.experiment.cli.eval_cli import main as eval_main
 from maopg.experiment.cli.train_cli import main as train_main
 from maopg.experiment.run import methods
 from maopg.experiment.run.directory import TIMING_COLUMNS
-from maopg.learner import Learner, LearnerSetup
+from maopg.learner import Learner, LearnerSetup, PPOConfig
 from maopg.learner.base import episode_metrics
 from maopg.learner.checkpoint import load_checkpoint
 from maopg.learner.mappo import centralized_policy
@@ -153,3 +153,20 @@ def test_a_builder_without_the_target_keyword_is_refused_at_registration(monkeyp
     with pytest.raises(ValueError, match=r"lacks the keyword\(s\) \['target'\]"):
         register_method(Method("earlier", "continue", ReinforceLearner, earlier))
     assert "earlier" not in methods.method_names()
+
+
+def test_a_learner_named_by_a_string_brings_its_section(monkeypatch):
+    """The registry reads a lazily named learner's section from its ``config`` (no import);
+    the class, once imported, must be the one that section belongs to."""
+    monkeypatch.setattr(methods, "_METHODS", dict(methods._METHODS))
+    learner = f"{__name__}:ReinforceLearner"
+    with pytest.raises(ValueError, match=r"needs config=, its Config, whose PREFIX names"):
+        register_method(Method("lazy", "continue", learner, f"{__name__}:centralized_policy"))
+    method = register_method(
+        Method(
+            "lazy", "continue", learner, "maopg.learner.mappo:centralized_policy", config=PPOConfig
+        )
+    )
+    assert method.section == "ppo"
+    with pytest.raises(TypeError, match=r"has section 'reinforce'.*not 'ppo'"):
+        assert method.learner_class

@@ -80,9 +80,9 @@ def test_overrides_are_typed_and_checked(capsys):
     }
     dqn = parse_overrides(["dqn.lr=2e-4", "dqn.recurrent=yes"], "mac-dqn")
     assert dqn == {"dqn": {"lr": 2e-4, "recurrent": True}}
-    with pytest.raises(ValueError, match="unknown config key 'epoch'"):
+    with pytest.raises(ValueError, match=r"unknown setting 'epoch': did you mean 'ppo\.epochs'"):
         parse_overrides(["epoch=5"], "async")
-    with pytest.raises(ValueError, match=r"unknown config key 'dqn\.epochs'"):
+    with pytest.raises(ValueError, match=r"unknown setting 'dqn\.epochs'"):
         parse_overrides(["dqn.epochs=5"], "mac-dqn")
     with pytest.raises(ValueError, match="reads the 'ppo' section, not 'dqn'"):
         parse_overrides(["dqn.lr=1e-3"], "async")
@@ -96,7 +96,7 @@ def test_overrides_are_typed_and_checked(capsys):
     assert "ppo" not in config.to_dict() and config.to_dict()["dqn"]["train_every"] == 7
     config, _ = parse_args(["--method", "sync-wait", "--seed", "3", "ppo.discount=option"])
     resolved = config.resolved()
-    assert resolved.strategy == "all" and get_method("sync-wait").learner.section == "ppo"
+    assert resolved.strategy == "all" and get_method("sync-wait").learner_class.section == "ppo"
     assert resolved.batch_ticks == 200 and resolved.learner.discount == "option"
     assert resolved.run_dir == os.path.join("runs", "tool_delivery", "sync-wait", "seed3")
     with pytest.raises(ValueError, match="unknown method"):

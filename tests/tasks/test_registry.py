@@ -49,7 +49,11 @@ def test_importing_the_registry_imports_no_simulation_code() -> None:
 def test_unknown_tasks_and_config_keys_are_named() -> None:
     with pytest.raises(ValueError, match=r"unknown task 'nope'; known tasks: .*tool_delivery"):
         task_entry("nope")
-    with pytest.raises(ValueError, match=r"unknown config key\(s\) \['max_tick'\].*valid keys"):
+    with pytest.raises(
+        ValueError,
+        match=r"unknown setting 'env\.max_tick' of task 'tool_delivery': did you mean "
+        r"'env\.max_ticks'\?$",
+    ):
         make_config("tool_delivery", {"max_tick": 3})
     assert make_config("tool_delivery", {"max_ticks": 3}).max_ticks == 3
 

@@ -321,6 +321,6 @@ def test_bad_option_ids_raise_value_errors_naming_the_agent() -> None:
         env.step([FILL, 0])
     with pytest.raises(ValueError, match="'drone' must choose"):
         env.step([0, -1])
-    with pytest.raises(ValueError, match="unknown config key"):
+    with pytest.raises(ValueError, match=r"unknown setting 'env\.jugs'"):
         make_env("water_filling", overrides={"jugs": 4})
     env.close()

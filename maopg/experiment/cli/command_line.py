@@ -12,7 +12,8 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Callable, Sequence
-from typing import NoReturn
+from pathlib import Path
+from typing import Any, NoReturn
 
 from maopg.experiment.run.errors import reporting_user_errors
 from maopg.plugins import load_plugins
@@ -25,10 +26,27 @@ class UsageError(ValueError):
 class Parser(argparse.ArgumentParser):
     """argparse's parser, its usage errors user errors like any other: one line and status 2
     from :func:`run_command` (argparse would print the whole usage first). Subcommands'
-    parsers are of the same class."""
+    parsers are of the same class. ``more_help`` renders text that ``--help`` shows after the
+    options, as it is, made only when asked for (the settings reference)."""
+
+    def __init__(self, *args: Any, more_help: Callable[[], str] | None = None, **kwargs: Any):
+        super().__init__(*args, **kwargs)
+        self.more_help = more_help
 
     def error(self, message: str) -> NoReturn:
         raise UsageError(f"{message} (see {self.prog} --help)")
+
+    def format_help(self) -> str:
+        text = super().format_help()
+        return f"{text}{self.more_help()}\n" if self.more_help else text
+
+
+def command_name(module_command: str) -> str:
+    """What the user typed to start the command, for its usage and error lines: the installed
+    script's name (``maopg-train``) when it runs, else ``module_command`` (``python -m train``,
+    a clone's ``train/__main__.py``; also what tests calling ``main`` see)."""
+    script = Path(sys.argv[0]).name
+    return script if script.startswith("maopg-") else module_command
 
 
 def at_least(minimum: int) -> Callable[[str], int]:

@@ -35,10 +35,16 @@ exit_if_mujoco_cannot_import("python -m eval")
 
 from maopg.env.contract import Strategy
 from maopg.env.rollout import REFERENCE_POLICIES
-from maopg.experiment.cli.command_line import Parser, add_common_options, at_least, run_command
+from maopg.experiment.cli.command_line import (
+    Parser,
+    add_common_options,
+    at_least,
+    command_name,
+    run_command,
+)
 from maopg.sim.checks import add_check_robot_arguments, cmd_check_robot
 
-PROG = "python -m eval"
+PROG = command_name("python -m eval")
 
 
 def _policy_args(parser: argparse.ArgumentParser) -> None:
@@ -173,6 +179,41 @@ def _policy_and_env(args: argparse.Namespace):
     env = make_env(task, strategy, seed=args.seed, overrides=settings)
     policy = reference_policy(args.reference, env, args.seed)
     return args.reference, args.reference, env, policy, reference_acting(args.reference)
+
+
+THRESHOLD = "--threshold"
+
+
+def _threshold_arg(parser: argparse.ArgumentParser) -> None:
+    """``--threshold TASK=VALUE``, once per task: taking one value, it leaves the run
+    directories after it to the command (:func:`_one_threshold_each` reads the list form)."""
+    parser.add_argument(
+        THRESHOLD,
+        action="append",
+        default=[],
+        metavar="TASK=VALUE",
+        help="a task's return threshold for the samples-to-threshold table, over the study's "
+        "(repeatable: --threshold tool_delivery=200 --threshold water_filling=-500)",
+    )
+
+
+def _one_threshold_each(argv: list[str]) -> list[str]:
+    """``--threshold A=1 B=2`` (a list, as earlier releases took it) as ``--threshold A=1
+    --threshold B=2``: after a threshold, each ``TASK=VALUE`` of a registered task is one
+    more, so ``--threshold A=1 B=2 RUNS`` and ``--threshold A=1 B=2 -- RUNS`` both work."""
+    from maopg.tasks import task_names
+
+    tasks = set(task_names())
+    out: list[str] = []
+    listing = False
+    for item in argv:
+        match = SETTING.match(item)
+        if listing and match and match.group(1) in tasks:
+            out += [THRESHOLD, item]
+            continue
+        listing = out[-1:] == [THRESHOLD] or item.startswith(f"{THRESHOLD}=")
+        out.append(item)
+    return out
 
 
 def _thresholds(items: list[str]) -> dict[str, float]:
@@ -433,7 +474,7 @@ def build_parser() -> argparse.ArgumentParser:
             )
             _progress_arg(p, "the reference policies' episodes")
         else:
-            p.add_argument("--threshold", nargs="*", default=[], metavar="TASK=VALUE")
+            _threshold_arg(p)
             p.add_argument("--out", type=Path, help="also write the Markdown here")
 
     p = sub.add_parser(
@@ -481,7 +522,7 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="FILE",
         help="a YAML or JSON settings file given to every run's train command line",
     )
-    p.add_argument("--threshold", nargs="*", default=[], metavar="TASK=VALUE")
+    _threshold_arg(p)
     p.add_argument("--window", type=at_least(1), default=5)
     p.add_argument(
         "--eval-episodes",
@@ -511,7 +552,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _run(argv: list[str], plugins: list[str]) -> int:
     settings, rest = _split_settings(argv)
-    args = build_parser().parse_args(rest)
+    args = build_parser().parse_args(_one_threshold_each(rest))
     if settings:
         args.settings = [*args.settings, *settings]
     return args.func(args)

@@ -24,7 +24,12 @@ from maopg.sim.egl_check import exit_if_mujoco_cannot_import
 # One line, not PyOpenGL's traceback from the imports below:
 exit_if_mujoco_cannot_import("python -m train")
 
-from maopg.experiment.cli.command_line import Parser, add_common_options, run_command
+from maopg.experiment.cli.command_line import (
+    Parser,
+    add_common_options,
+    command_name,
+    run_command,
+)
 from maopg.experiment.run.config import (
     TrainConfig,
     merge,
@@ -35,10 +40,11 @@ from maopg.experiment.run.config import (
 from maopg.experiment.run.config_file import read_config_file
 from maopg.experiment.run.directory import CONFIG
 from maopg.experiment.run.methods import method_names
+from maopg.experiment.run.settings_reference import settings_help
 from maopg.plugins import load_plugins
 from maopg.tasks import task_names
 
-PROG = "python -m train"
+PROG = command_name("python -m train")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -50,7 +56,8 @@ def build_parser() -> argparse.ArgumentParser:
         "num_workers=2, video=false, plot=false, device=cuda), SECTION.key=value a "
         "hyper-parameter of the method's learner (ppo.epochs=5, dqn.lr=1e-3) and env.key=value "
         "a task setting; they override --config FILE. A key=value that repeats a flag "
-        "(seed=2 with --seed 1) must agree with it.",
+        "(seed=2 with --seed 1) must agree with it. The settings follow.",
+        more_help=settings_help,
     )
     parser.add_argument(
         "--config",

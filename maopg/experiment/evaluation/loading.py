@@ -46,12 +46,14 @@ class Trained:
     def actor(self, *, greedy: bool = True, seed: int = 0) -> Actor:
         """The trained policy as ``DecisionPoint -> joint option``: the mode (greedy) or a
         sample seeded with ``seed`` — for Mac-DQN, ε-greedy at its final exploration rate."""
-        return self.method.learner.actor(self.policy, self.config.learner, greedy=greedy, seed=seed)
+        return self.method.learner_class.actor(
+            self.policy, self.config.learner, greedy=greedy, seed=seed
+        )
 
     def label(self, *, greedy: bool = True) -> str:
         """Who acts, for a video's title: the method, its training seed and how it acts
         (``async seed 2 (sampled)``, ``mac-dqn seed 0 (ε-greedy)``)."""
-        mode = "greedy" if greedy else self.method.learner.sampled_name
+        mode = "greedy" if greedy else self.method.learner_class.sampled_name
         return f"{self.config.method} seed {self.config.seed} ({mode})"
 
 
@@ -90,7 +92,7 @@ def load_trained(path: str | Path, device: str = "cpu") -> Trained:
     policy = method.build_policy(
         spec, hidden=config.hidden, layers=config.layers, config=config.learner
     )
-    key = method.learner.policy_key
+    key = method.learner_class.policy_key
     if key not in state:
         raise CheckpointError(f"checkpoint {file} lacks the entries [{key!r}]")
     with fitting(file):

@@ -8,6 +8,8 @@
 - :mod:`.directory` — the run directory's files: config, metrics, checkpoints, ``done.json``;
 - :mod:`.lock` — one process at a time in a run directory;
 - :mod:`.wandb_log`, :mod:`.tb_video` — the optional loggers beside ``metrics.csv``;
+- :mod:`.settings_reference` — every setting's kind, default, bounds and meaning, for ``--help``
+  and the documentation's reference page;
 - :mod:`.sysinfo` — the machine a run or benchmark ran on;
 - :mod:`.errors` — what counts as a user's mistake (one line, never a traceback).
 

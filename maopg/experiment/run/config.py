@@ -31,23 +31,23 @@ import types
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Union, get_args, get_origin, get_type_hints
+from typing import TYPE_CHECKING, Any, Union, get_args, get_origin, get_type_hints
 
-import torch
-
-from maopg.env import check_overrides
-from maopg.env.ray_backend import INSTALL_HINT, RayOptions, ray_available
-from maopg.env.vector import BACKENDS, EnvConfig
+from maopg.env import OWN_ARGUMENTS, check_overrides
+from maopg.env.ray_options import INSTALL_HINT, RayOptions, ray_available
 from maopg.experiment.run.config_file import read_config_file
-from maopg.experiment.run.methods import get_method, section_classes
+from maopg.experiment.run.methods import get_method, method_names, section_classes
 from maopg.experiment.run.migration import CONFIG_SCHEMA, FLAT_PPO_KEYS, SCHEMA_KEY
 from maopg.experiment.run.wandb_log import INSTALL_HINT as WANDB_HINT
 from maopg.experiment.run.wandb_log import WandbOptions, wandb_available
-from maopg.policy import PRECISIONS
-from maopg.settings import Settings, setting
+from maopg.policy.choices import PRECISION_NAMES
+from maopg.settings import Settings, setting, unknown_setting
 from maopg.sim.egl_check import gl_problem
 from maopg.tasks import make_config, task_class, task_entry
-from maopg.tasks.base import MAX_IMAGE_SIZE, require_strategy
+from maopg.tasks.config import MAX_IMAGE_SIZE, TaskConfig
+
+if TYPE_CHECKING:
+    from maopg.env.vector import EnvConfig
 
 GENERIC_DEFAULTS: dict[str, Any] = {
     "batch_ticks": 1000,
@@ -84,7 +84,11 @@ class TrainConfig(Settings):
     and again once :meth:`resolved` has filled in the defaults."""
 
     task: str = "tool_delivery"
+    """The task trained on (``--task``): a registered task's name; its ``env.*`` settings are
+    its own."""
     method: str = "async"
+    """The method (``--method``): a registered method's name, which brings the termination
+    strategy, the policy and the learner section it reads (``ppo``, ``dqn``, ...)."""
     seed: int = setting(0, ge=0)
     """Seeds every random stream of the run (episodes, initialisation, sampling)."""
     total_samples: int | None = setting(None, ge=1)
@@ -96,6 +100,7 @@ class TrainConfig(Settings):
     image_size: int = setting(64, ge=1, le=MAX_IMAGE_SIZE)
     """Side of the square camera images (px)."""
     num_envs: int = setting(4, ge=1)
+    """Environments stepped in lockstep, each playing its own seeded episodes."""
     backend: str | None = None
     """Where the environments run: ``local`` (this process, one after another), ``threads``
     (this process, stepped in parallel while ``mj_step`` and rendering release the GIL;
@@ -109,7 +114,7 @@ class TrainConfig(Settings):
     :data:`WORKERS_PER_CORE` per core: the operating system then balances option steps of
     uneven length over the cores, where a worker stepping several environments in turn makes
     the others wait; ``bench/perf/lockstep.py``), actors of ``ray`` (0 = one), threads of
-    ``threads`` (at least 2)."""
+    ``threads`` (at least 2). At most ``num_envs``: a worker steps one environment at least."""
     ray: RayOptions = field(default_factory=RayOptions)
     """Where the ``ray`` backend's actors run (``ray.address=auto``; :class:`RayOptions`)."""
     logger: str = setting("tensorboard", choices=LOGGERS)
@@ -133,7 +138,7 @@ class TrainConfig(Settings):
     environments always step (and render) on the CPU side. Bit-exact learning curves are
     promised on ``cpu`` only: CUDA kernels round differently (and not always deterministically),
     so a ``cuda`` run is reproducible in distribution, not bit for bit."""
-    precision: str = setting("fp32", choices=tuple(PRECISIONS))
+    precision: str = setting("fp32", choices=PRECISION_NAMES)
     """What the image encoders (the CNNs) compute in: ``fp32``, or ``bf16``, faster on a CPU
     with bf16 instructions (AVX512-BF16, AMX) and ``torch_threads=1`` or on a recent GPU, slower
     elsewhere (``bench/perf/precision.py``; :func:`~maopg.policy.encoders.set_precision` says why
@@ -143,6 +148,7 @@ class TrainConfig(Settings):
     """``torch.set_num_threads`` (0 = torch's default). One thread is fastest for the small
     state-vector networks and avoids oversubscribing the cores the environments use."""
     progress: bool = True
+    """Show progress bars on stderr (training, and the evaluation and video at the end)."""
     video: bool = True
     """Record a rollout of the trained policy (seed 0) to ``rollout.mp4`` at the end
     (~45 s on Water Filling; ``video=false`` skips it, as the reproduction grid does)."""
@@ -186,6 +192,8 @@ class TrainConfig(Settings):
     defaults). Saved under the section's name (``"ppo": {...}``)."""
 
     def validate(self) -> None:
+        from maopg.env.vector import BACKENDS  # the backends' registry: torch and MuJoCo
+
         super().validate()
         if self.backend is not None and self.backend not in BACKENDS:
             raise ValueError(f"backend must be one of {sorted(BACKENDS)}, got {self.backend!r}")
@@ -215,6 +223,12 @@ class TrainConfig(Settings):
             cfg.backend = "processes" if cfg.num_workers > 1 else defaults["backend"]
         if cfg.backend == "processes" and cfg.num_workers == 0:
             cfg.num_workers = min(cfg.num_envs, WORKERS_PER_CORE * (os.cpu_count() or 1))
+        if cfg.num_workers > cfg.num_envs:
+            raise ValueError(
+                f"num_workers={cfg.num_workers} is more than num_envs={cfg.num_envs}: a worker "
+                f"steps one environment at least, so num_workers may be 0 (the backend's "
+                f"default) to {cfg.num_envs}"
+            )
         if cfg.learner is None:
             cfg.learner = method.default_config(task_learner_defaults(cfg.task, method.section))
         elif not isinstance(cfg.learner, method.config_class):
@@ -231,7 +245,12 @@ class TrainConfig(Settings):
         if cfg.logger == "wandb" and not wandb_available():
             raise ValueError(WANDB_HINT)
         cfg.learner.validate()
-        make_config(cfg.task, cfg.env_overrides)  # the task settings' names and kinds
+        task_settings = make_config(cfg.task, cfg.env_overrides)  # names, kinds and bounds
+        check_task = getattr(cfg.learner, "check_task", None)  # the section's relations to it
+        if check_task is not None:
+            check_task(task_settings)
+        from maopg.tasks.base import require_strategy  # MuJoCo, which task_class loads anyway
+
         require_strategy(task_class(cfg.task), cfg.task, cfg.strategy, method=cfg.method)
         return cfg
 
@@ -248,6 +267,8 @@ class TrainConfig(Settings):
         return dataclasses.asdict(self.ray) if self.backend == "ray" else {}
 
     def env(self) -> EnvConfig:
+        from maopg.env.vector import EnvConfig
+
         return EnvConfig(
             task=self.task,
             strategy=self.strategy,
@@ -344,6 +365,8 @@ def resolve_device(device: str) -> str:
     ``cuda`` without a GPU is a ``ValueError``, as is anything else (naming the setting)."""
     if device not in DEVICES:
         raise ValueError(f"device must be one of {list(DEVICES)}, got {device!r}")
+    import torch  # only here: reading and checking a config needs no torch
+
     if device == "auto":
         return "cuda" if torch.cuda.is_available() else "cpu"
     if device == "cuda" and not torch.cuda.is_available():
@@ -355,11 +378,12 @@ def resolve_device(device: str) -> str:
 
 
 def _known(cls: type, data: dict[str, Any], prefix: str) -> None:
-    """Every key of ``data`` names a field of ``cls`` (a ``ValueError`` naming the others)."""
+    """Every key of ``data`` names a field of ``cls`` (else a ``ValueError`` naming the first
+    other and the nearest field)."""
     names = {f.name for f in dataclasses.fields(cls)} - {"learner", *RUN_SECTIONS}
     unknown = sorted(set(data) - names)
     if unknown:
-        raise ValueError(f"unknown config keys {[prefix + k for k in unknown]}")
+        raise unknown_setting(prefix + unknown[0], [prefix + name for name in names])
 
 
 def _build(cls: type, data: dict[str, Any], prefix: str) -> Any:
@@ -449,6 +473,7 @@ def _place_settings(pairs: list[tuple[str, Any]], method: str, *, parse: bool) -
     the value is command-line text, read as the field's type)."""
     own = get_method(method).section
     sections = section_classes()
+    known = setting_names(method)
     values: dict[str, Any] = {}
     for key, given in pairs:
         item = f"{key}={given}"
@@ -462,26 +487,29 @@ def _place_settings(pairs: list[tuple[str, Any]], method: str, *, parse: bool) -
                 file=sys.stderr,
             )
             section, name, dot = "ppo", key, "."
+        if key == "strategy":
+            raise ValueError(
+                f"strategy is no setting: the method brings it; {methods_by_strategy()}"
+            )
         if not dot:
-            values[key] = _field_value(TrainConfig, key, given, "", parse)
+            values[key] = _field_value(TrainConfig, key, given, "", parse, known)
         elif section == "env":
             setting = parse_task_settings([f"{name}={given}"])[name] if parse else given
             values.setdefault("env_overrides", {})[name] = setting
         elif section in RUN_SECTIONS:
             values.setdefault(section, {})[name] = _field_value(
-                RUN_SECTIONS[section], name, given, f"{section}.", parse
+                RUN_SECTIONS[section], name, given, f"{section}.", parse, known
             )
         elif section == own:
             values.setdefault(section, {})[name] = _field_value(
-                sections[section], name, given, f"{section}.", parse
+                sections[section], name, given, f"{section}.", parse, known
             )
         elif section in sections:
             raise ValueError(
                 f"{item!r}: method {method!r} reads the {own!r} section, not {section!r}"
             )
         else:
-            known = sorted({own, "env", *RUN_SECTIONS})
-            raise ValueError(f"unknown config section {section!r} in {item!r}; known: {known}")
+            raise unknown_setting(key, known)
     return values
 
 
@@ -489,13 +517,40 @@ def _run_fields() -> list[str]:
     return sorted(f.name for f in dataclasses.fields(TrainConfig) if f.name not in NOT_RUN_FIELDS)
 
 
-def _field_value(cls: type, name: str, given: Any, prefix: str, parse: bool) -> Any:
-    """``given`` for field ``name`` of ``cls`` (an unknown name is an error listing the known
-    ones), read from command-line text where ``parse``."""
+def methods_by_strategy() -> str:
+    """``the strategies are continue (--method async, ...), any (--method sync-cut, ...)``."""
+    by: dict[str, list[str]] = {}
+    for name in method_names():
+        by.setdefault(str(get_method(name).strategy), []).append(name)
+    listed = ", ".join(
+        f"{strategy} (--method {' / '.join(names)})" for strategy, names in by.items()
+    )
+    return f"the strategies are {listed}"
+
+
+def setting_names(method: str) -> list[str]:
+    """The settings a run of ``method`` takes as ``key=value`` whatever its task: the run's
+    fields, its method's section, :data:`RUN_SECTIONS` and the task settings every task has
+    (``env.max_ticks``), named as on the command line (``num_envs``, ``ppo.epochs``)."""
+    own = get_method(method).section
+    sections = {**RUN_SECTIONS, own: section_classes()[own], "env": TaskConfig}
+    return _run_fields() + [
+        f"{name}.{f.name}"
+        for name, cls in sections.items()
+        for f in dataclasses.fields(cls)
+        if not (cls is TaskConfig and f.name in OWN_ARGUMENTS)
+    ]
+
+
+def _field_value(
+    cls: type, name: str, given: Any, prefix: str, parse: bool, known: list[str]
+) -> Any:
+    """``given`` for field ``name`` of ``cls`` (an unknown name is an error naming the nearest
+    of the ``known`` settings), read from command-line text where ``parse``."""
     hints = get_type_hints(cls)
     fields = (
         _run_fields() if cls is TrainConfig else sorted(f.name for f in dataclasses.fields(cls))
     )
     if name not in fields:
-        raise ValueError(f"unknown config key {prefix + name!r}; known: {fields}")
+        raise unknown_setting(prefix + name, known)
     return _parse_value(given, hints[name], prefix + name) if parse else given

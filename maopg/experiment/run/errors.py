@@ -19,9 +19,9 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
-from maopg.learner import CheckpointError, NonFiniteError
+from maopg.learner.errors import CheckpointError, NonFiniteError
 from maopg.plugins import PluginError
-from maopg.sim.render import RenderError
+from maopg.sim.egl_check import RenderError
 
 USER_ERRORS = (
     ValueError,

@@ -43,9 +43,6 @@ from __future__ import annotations
 import os
 from typing import Any
 
-from maopg.learner import load_checkpoint
-from maopg.learner.checkpoint import CHECKSUM_KEY, TENSORS_CHECKSUM_KEY
-
 SCHEMA_KEY = "schema"
 CONFIG_SCHEMA = 3
 """The layout :meth:`~maopg.experiment.run.config.TrainConfig.save` writes."""
@@ -157,6 +154,8 @@ def migrate_checkpoint(state: dict[str, Any]) -> dict[str, Any]:
 
 def _checksums_of_its_schema(state: dict[str, Any]) -> tuple[str | None, ...]:
     """The checksum entries a checkpoint of ``state``'s schema may carry (module docstring)."""
+    from maopg.learner.checkpoint import CHECKSUM_KEY, TENSORS_CHECKSUM_KEY
+
     schema = state.get(SCHEMA_KEY, 1)
     if not isinstance(schema, int) or schema >= WHOLE_CHECKSUM_SCHEMA:  # a bad one: migrated,
         return (CHECKSUM_KEY,)  # it is refused by name
@@ -165,5 +164,8 @@ def _checksums_of_its_schema(state: dict[str, Any]) -> tuple[str | None, ...]:
 
 def read_checkpoint(path: str | os.PathLike[str], required: tuple[str, ...] = ()) -> dict:
     """A checkpoint file's entries, verified by the checksum its schema carries (module
-    docstring), in the current schema (:func:`migrate_checkpoint`)."""
+    docstring), in the current schema (:func:`migrate_checkpoint`). (The learner, and torch,
+    are imported here: the run's config files are read without them.)"""
+    from maopg.learner import load_checkpoint
+
     return migrate_checkpoint(load_checkpoint(path, required, accepts=_checksums_of_its_schema))

@@ -48,6 +48,7 @@ class WandbOptions(Settings):
     PREFIX: ClassVar[str] = "wandb."
 
     project: str = "maopg"
+    """The W&B project the run is logged to."""
     entity: str | None = None
     """The W&B team or user (``None``: the logged-in user's default)."""
     group: str | None = None

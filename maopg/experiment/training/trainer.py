@@ -138,7 +138,7 @@ def build_learner(
         device=torch.device(config.device),
         precision=config.precision,
     )
-    return method.learner(policy, setup)
+    return method.learner_class(policy, setup)
 
 
 def _note(message: str) -> None:
@@ -370,7 +370,7 @@ class TrainingEvaluation:
             return dict(evaluation.NO_EVALUATION)
         start = time.perf_counter()
         episode_seed, acting_seed = evaluation.evaluation_seeds(config.seed, index)
-        actor = get_method(config.method).learner.actor(
+        actor = get_method(config.method).learner_class.actor(
             copy.deepcopy(learner.policy).cpu(),
             config.learner,
             greedy=not config.eval_during_sample,

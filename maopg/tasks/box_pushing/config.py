@@ -8,10 +8,9 @@ from dataclasses import dataclass
 from typing import ClassVar
 
 from maopg.settings import setting
-from maopg.sim.robots import GroundAdapter, get_robot, robots_of_role
-from maopg.tasks.base import SceneTaskConfig
 from maopg.tasks.box_pushing_grid.config import SIZES
 from maopg.tasks.box_pushing_grid.config import Config as GridConfig
+from maopg.tasks.config import SceneTaskConfig
 
 
 @dataclass(frozen=True)
@@ -49,11 +48,14 @@ class Config(SceneTaskConfig):
     """Sliding friction between a box and the floor (against robots, walls and other boxes a
     box slides at ``arena.BOX_SIDE_FRICTION``)."""
     big_box_reward: float = GridConfig.big_box_reward
+    """Paid when the big box reaches the goal row."""
     small_box_reward: float = GridConfig.small_box_reward
+    """Paid when a small box reaches the goal row."""
     penalty: float = GridConfig.penalty
     """Paid for a Push into a wall (started at the border facing out) and for a Push that
     stalls: against the big box alone, or anything else it cannot move."""
     step_reward: float = GridConfig.step_reward
+    """Paid every tick."""
     stall_ticks: int = setting(2, ge=1)
     """A Push ends, penalised, after this many ticks in a row of less than ``stall_distance``
     of progress."""
@@ -70,7 +72,10 @@ class Config(SceneTaskConfig):
 
     def validate(self) -> None:
         """The fields' own bounds and a ground robot (``ROBOT_ROLES``), then one that turns on
-        the spot: Box Pushing's turns ask it to."""
+        the spot: Box Pushing's turns ask it to. (The robots are imported here: reading the
+        settings, as ``--help`` does, builds none.)"""
+        from maopg.sim.robots import GroundAdapter, get_robot, robots_of_role
+
         super().validate()
         adapter = get_robot(self.turtlebot_robot).adapter_class()
         if adapter.turn_to is GroundAdapter.turn_to:

@@ -6,7 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from maopg.settings import setting
-from maopg.tasks.base import TaskConfig
+from maopg.tasks.config import TaskConfig
 
 SIZES = (4, 6, 8, 10)
 """The grid sizes the canonical layouts exist for (4x4: the original paper's smallest; 6, 8
@@ -26,7 +26,9 @@ class Config(TaskConfig):
     """The horizon: the ACAC runner's 100 steps (the env itself has no time limit); a timeout is
     a truncation, never a termination."""
     big_box_reward: float = 300.0
+    """Paid when the big box reaches the goal row."""
     small_box_reward: float = 20.0
+    """Paid when a small box reaches the goal row."""
     penalty: float = -10.0
     """Paid for a Push into a wall, into a box from the side, or alone into the big box."""
     step_reward: float = -0.1

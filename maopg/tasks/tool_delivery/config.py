@@ -8,7 +8,7 @@ from dataclasses import dataclass
 from typing import ClassVar
 
 from maopg.settings import setting
-from maopg.tasks.base import SceneTaskConfig
+from maopg.tasks.config import SceneTaskConfig
 
 
 @dataclass(frozen=True)
@@ -29,6 +29,7 @@ class Config(SceneTaskConfig):
     timestep: float = 0.02  # stable for the servos and welds; 50 physics steps per tick
     ROBOT_ROLES: ClassVar[Mapping[str, str]] = {"turtlebot_robot": "ground", "fetch_robot": "arm"}
     turtlebot_robot: str = "turtlebot"
+    """The registered robot that plays the Turtlebots (a ground robot: ``diffbot``, a user's)."""
     fetch_robot: str = "fetch"
     """An arm (``ArmAdapter``): it stands at ``fetch_base`` and must reach the shelf slots, the
     desk slots and the baskets at the desk spots."""
@@ -37,14 +38,21 @@ class Config(SceneTaskConfig):
     desk_spots: tuple[tuple[float, float], tuple[float, float]] = ((0.8, 3.0), (1.2, 3.0))
     """Where Turtlebot 0 / 1 waits for a pass (m): within the arm's reach with its basket."""
     human_stage_ticks: int = setting(18, ge=1)
+    """Ticks a human works on each of its stages before the next tool can move it on."""
     search_ticks: int = setting(6, ge=1)
+    """Ticks the Fetch takes to find a tool on the shelf and stage it on the desk."""
     pass_ticks: int = setting(4, ge=1)
+    """Ticks the Fetch takes to pass a staged tool to a waiting Turtlebot."""
     max_wait_ticks: int = setting(10, ge=1)
+    """Ticks a Turtlebot waits at the desk for a pass before ``GetTool`` gives up."""
     max_staged: int = setting(2, ge=1, le=2)
     """Tools the desk holds at once (its MJCF has two slots)."""
     step_reward: float = -1.0
+    """Paid every tick."""
     delivery_reward: float = 100.0
+    """Paid for each delivery of the tool a human needs now."""
     failed_pass_reward: float = -10.0
+    """Paid for a pass to a Turtlebot that is not (or stops being) ready for it."""
     mask_options: bool = False
     """Mask searches of found tools (or with the desk full) and passes with nothing staged.
     Off by default: the canonical task lets the Fetch waste time on them."""
