@@ -1,9 +1,10 @@
 """The ``ray`` backend: environments in Ray actors, on this machine or across a cluster.
 
-Ray is an optional extra (``pip install 'maopg[ray]'``); this module imports it only when a
-:class:`RayVectorEnv` is built. ``num_workers`` actors each hold a slice of the environments,
-built by the same bootstrap as a spawned worker's (:func:`~maopg.env.vector.worker_envs`: the
-run's plugins, then what the parent registered). Everything that decides what is simulated
+Ray is an optional extra (``maopg[ray]``; :func:`maopg.extras.install_hint` says how to
+install it): this module imports it only when a :class:`RayVectorEnv` is built.
+``num_workers`` actors each hold a slice of the environments, built by the same bootstrap as
+a spawned worker's (:func:`~maopg.env.vector.worker_envs`: the run's plugins, then what the
+parent registered). Everything that decides what is simulated
 stays in the main process (:class:`~maopg.env.vector.SeededVectorEnv`), so a run's learning
 curve is the same as with ``backend=local`` for any number of actors, and the local backend's
 own random streams are untouched.
@@ -62,12 +63,16 @@ from maopg.env.vector_base import (
     split_envs,
     worker_envs,
 )
+from maopg.extras import install_hint
 from maopg.plugins import env_plugins
 from maopg.settings import Settings, setting
 
 log = logging.getLogger(__name__)
 
-INSTALL_HINT = "backend=ray needs Ray: pip install 'maopg[ray]'"
+
+def missing_ray() -> str:
+    """The error of ``backend=ray`` without Ray: how to install it (:func:`install_hint`)."""
+    return f"backend=ray needs Ray: {install_hint('ray')}"
 
 
 def ray_available() -> bool:
@@ -246,7 +251,7 @@ class RayVectorEnv(SplitVectorEnv):
         options: RayOptions | None = None,
     ) -> None:
         if not ray_available():
-            raise ValueError(INSTALL_HINT)
+            raise ValueError(missing_ray())
         import ray
 
         self.options = options or RayOptions()

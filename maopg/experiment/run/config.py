@@ -36,13 +36,12 @@ from typing import Any, Union, get_args, get_origin, get_type_hints
 import torch
 
 from maopg.env import check_overrides
-from maopg.env.ray_backend import INSTALL_HINT, RayOptions, ray_available
+from maopg.env.ray_backend import RayOptions, missing_ray, ray_available
 from maopg.env.vector import BACKENDS, EnvConfig
 from maopg.experiment.run.config_file import read_config_file
 from maopg.experiment.run.methods import get_method, section_classes
 from maopg.experiment.run.migration import CONFIG_SCHEMA, FLAT_PPO_KEYS, SCHEMA_KEY
-from maopg.experiment.run.wandb_log import INSTALL_HINT as WANDB_HINT
-from maopg.experiment.run.wandb_log import WandbOptions, wandb_available
+from maopg.experiment.run.wandb_log import WandbOptions, missing_wandb, wandb_available
 from maopg.policy import PRECISIONS
 from maopg.settings import Settings, setting
 from maopg.sim.egl_check import gl_problem
@@ -227,9 +226,9 @@ class TrainConfig(Settings):
         cfg.device = resolve_device(cfg.device)
         cfg.validate()
         if cfg.backend == "ray" and not ray_available():
-            raise ValueError(INSTALL_HINT)
+            raise ValueError(missing_ray())
         if cfg.logger == "wandb" and not wandb_available():
-            raise ValueError(WANDB_HINT)
+            raise ValueError(missing_wandb())
         cfg.learner.validate()
         make_config(cfg.task, cfg.env_overrides)  # the task settings' names and kinds
         require_strategy(task_class(cfg.task), cfg.task, cfg.strategy, method=cfg.method)
