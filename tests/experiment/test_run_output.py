@@ -33,7 +33,9 @@ def test_a_run_in_a_log_prints_a_few_lines_and_ends_with_what_it_learnt(tmp_path
         evaluated = done["evaluation"][kind]
         assert evaluated["episodes"] == 2 and 0 <= evaluated["success_rate"] <= 1
         assert f"final policy, {kind}: return {evaluated['return_mean']:.1f}, " in printed.out
-    assert f"final return {done['final_return']:.1f} (mean over the last 10%" in printed.out
+    assert f"final return {done['final_return']:.1f} (the training episodes of the last 10%" in (
+        printed.out
+    )
     assert f"trained {done['samples']} samples in {done['iterations']} iterations" in printed.out
     last = printed.out.splitlines()[-1]
     assert last.startswith(f"run directory: {run_dir} (") and "final.pt, metrics.csv" in last

@@ -776,8 +776,8 @@ def run_summary(run_dir: Path) -> str:
         )
     if done.get("final_return") is not None:
         lines.append(
-            f"final return {done['final_return']:.1f} (mean over the last "
-            f"{FINAL_FRACTION:.0%} of the samples' training episodes)"
+            f"final return {done['final_return']:.1f} (the training episodes of the last "
+            f"{FINAL_FRACTION:.0%} of the samples)"
         )
     for kind, result in done.get("evaluation", {}).items():
         lines.append(
