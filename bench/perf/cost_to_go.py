@@ -1,6 +1,7 @@
-"""The planners' cost-to-go fields by each method, side by side: the relaxation, the heap
-Dijkstra the package uses above :data:`~maopg.sim.planning.RELAXATION_CELLS`, and scipy's
-sparse-graph Dijkstra, which it used before (scipy was a core dependency for this one call).
+"""The planners' cost-to-go fields by each method, side by side: the relaxation, the Dijkstra
+the package uses above :data:`~maopg.sim.planning.RELAXATION_CELLS` (its own, numpy), and
+scipy's sparse-graph Dijkstra, which it used before (scipy was a core dependency for this one
+call).
 
 Run: ``.venv/bin/python bench/perf/cost_to_go.py [--repeats 5]``. Prints a Markdown block for
 BENCHMARKS.md: per Water Filling room (the team sizes of ``bench/perf/wf_teams.py``) the grid,
@@ -74,11 +75,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--repeats", type=int, default=5)
     args = parser.parse_args(argv)
     imported = scipy_import_ms()
-    print("### Cost-to-go fields: relaxation, heap Dijkstra, scipy (`bench/perf/cost_to_go.py`)\n")
+    print("### Cost-to-go fields: relaxation, our Dijkstra, scipy's (`bench/perf/cost_to_go.py`)\n")
     print(markdown() + "\n")
     print(
-        "| vehicles, drones, jars | grid cells | relaxation ms | heap Dijkstra ms "
-        "| scipy Dijkstra ms | equal to the bit |"
+        "| vehicles, drones, jars | grid cells | relaxation ms | Dijkstra ms "
+        "| scipy's Dijkstra ms | equal to the bit |"
     )
     print("|---|---|---|---|---|---|")
     for size in SIZES:

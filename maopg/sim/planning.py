@@ -362,38 +362,43 @@ def relaxed_cost_to_go(blocked: np.ndarray, seeds: np.ndarray) -> np.ndarray:
 
 
 def dijkstra_cost_to_go(blocked: np.ndarray, seeds: np.ndarray) -> np.ndarray:
-    """:func:`cost_to_go` by multi-source Dijkstra (a binary heap) over the grid's legal moves,
-    walked backwards: a settled cell offers its cost plus the move's length to each cell that
-    may move to it, the very sum the relaxation takes, so the two agree to the bit. Plain
-    Python over flat lists, each cell settled once (``bench/perf/cost_to_go.py`` times it
-    beside the relaxation)."""
+    """:func:`cost_to_go` by multi-source Dijkstra over the grid's legal moves, walked backwards
+    (a settled cell offers its cost plus the move's length to each cell that may move to it:
+    the very sum the relaxation takes, so the two agree to the bit), settling a band at a time.
+
+    Every move is at least 1 long, so no path through an unsettled cell can bring a cell below
+    ``m + 1``, ``m`` the least cost still open: each round settles every open cell under it at
+    once (Dial's buckets, one unit wide) and relaxes the band's moves as numpy index arrays.
+    Rounds grow with the longest path, each with the band's cells, not the grid's
+    (``bench/perf/cost_to_go.py`` times it beside the relaxation and scipy's Dijkstra, which
+    did this before)."""
     ny, nx = blocked.shape
     # A blocked border: every neighbour of a free cell is then inside the flat array, and the
     # flat index of a move, cell + di * width + dj, never wraps onto another row.
     walled = np.ones((ny + 2, nx + 2), dtype=bool)
     walled[1:-1, 1:-1] = blocked
     width = nx + 2
-    moves = [
-        (di * width + dj, step, ok.ravel().tolist()) for di, dj, step, ok in legal_moves(walled)
-    ]
-    sources = [(i + 1) * width + j + 1 for i, j in np.argwhere(seeds & ~blocked).tolist()]
-    field = [math.inf] * walled.size
-    for cell in sources:
-        field[cell] = 0.0
-    frontier = [(0.0, cell) for cell in sources]
-    pop, push = heapq.heappop, heapq.heappush
-    while frontier:
-        cost, cell = pop(frontier)
-        if cost > field[cell]:
-            continue  # an older, longer offer
+    moves = [(di * width + dj, step, ok.ravel()) for di, dj, step, ok in legal_moves(walled)]
+    sources = np.zeros_like(walled)
+    sources[1:-1, 1:-1] = seeds & ~blocked
+    field = np.full(walled.size, np.inf)
+    seen = np.zeros(walled.size, dtype=bool)  # given a finite cost, settled or not
+    frontier = np.flatnonzero(sources)  # seen, not settled
+    field[frontier] = 0.0
+    seen[frontier] = True
+    while frontier.size:
+        costs = field[frontier]
+        band = costs < costs.min() + 1.0
+        settled, frontier = frontier[band], frontier[~band]
         for offset, step, ok in moves:
-            before = cell - offset
-            if ok[before]:
-                offer = cost + step
-                if offer < field[before]:
-                    field[before] = offer
-                    push(frontier, (offer, before))
-    return np.array(field).reshape(walled.shape)[1:-1, 1:-1].copy()
+            legal = ok[settled - offset]  # the cells that may move onto a settled one
+            ends = settled[legal]
+            before = ends - offset  # distinct: one move, distinct ends
+            field[before] = np.minimum(field[before], field[ends] + step)
+            new = before[~seen[before]]
+            seen[new] = True
+            frontier = np.concatenate([frontier, new])
+    return field.reshape(walled.shape)[1:-1, 1:-1].copy()
 
 
 def _downhill(field: np.ndarray, blocked: np.ndarray) -> np.ndarray:
