@@ -42,6 +42,9 @@ class Progress(Protocol):
 
     def refresh(self) -> Any: ...
 
+    def write(self, s: str, file: Any = None) -> None:
+        """A line of its own, around the bar (tqdm clears and redraws it)."""
+
     def close(self) -> None: ...
 
 
@@ -72,6 +75,9 @@ class LogLines:
     def refresh(self) -> None:
         if self.n >= self._next:
             self._say()
+
+    def write(self, s: str, file: Any = None) -> None:
+        print(s, file=file or sys.stderr, flush=True)
 
     def close(self) -> None:
         if self.n != self._said:

@@ -549,7 +549,7 @@ def _train(config: TrainConfig, lock: RunDirLock, *, resume: bool, overwrite: bo
                 first = samples == session_samples  # the session's first iteration
                 budget: int = config.total_samples  # type: ignore[assignment]
                 if first and (rounding := rounding_note(budget, samples + ticks, ticks)):
-                    _note(rounding)
+                    bar.write(f"note: {rounding}", file=sys.stderr)  # a line, not in the bar
                 iteration += 1
                 samples += ticks
                 wall_time += elapsed
