@@ -20,3 +20,12 @@ def user_error(capsys) -> Callable[[Callable[[Sequence[str]], int], Sequence[str
         return err
 
     return check
+
+
+@pytest.fixture
+def terminal(monkeypatch) -> None:
+    """stderr taken for a terminal, as where a user watches a run: progress shows as tqdm bars
+    (:mod:`maopg.progress`; under pytest it is captured, as in a log)."""
+    from maopg import progress
+
+    monkeypatch.setattr(progress, "on_terminal", lambda: True)

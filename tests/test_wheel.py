@@ -4,6 +4,7 @@ The wheel is built from a temporary copy of the working tree (so no build/ or *.
 in the checkout, and files not yet committed are included), inspected, then installed into a
 ``--target`` folder and imported from outside the repository, where it must build both scenes
 and render. An editable install is checked too: it must keep reading the top-level ``assets/``.
+Each says how to install an optional extra the way that works there (:mod:`maopg.extras`).
 """
 
 from __future__ import annotations
@@ -130,10 +131,12 @@ INSTALLED_CHECK = textwrap.dedent(
 
     import maopg
     from maopg.env import make_env
+    from maopg.extras import install_hint
     from maopg.sim.robots import ASSETS_DIR
 
     site = Path(sys.argv[1]).resolve()
     report = {"maopg": maopg.__file__, "assets": str(ASSETS_DIR), "images": {}}
+    report["hint"] = install_hint("wandb")
     assert Path(maopg.__file__).resolve().is_relative_to(site), report
     assert ASSETS_DIR.resolve() == site / "maopg" / "assets", report
     for task in ("tool_delivery", "water_filling"):
@@ -161,6 +164,7 @@ def test_installed_wheel_builds_both_scenes_and_renders(work: Path, wheel: Path)
     out = _run([sys.executable, "-c", INSTALLED_CHECK, str(site)], elsewhere, env)
     report = json.loads(out.strip().splitlines()[-1])
     assert set(report["images"]) == {"tool_delivery", "water_filling"}
+    assert report["hint"] == "pip install 'maopg[wandb]'"  # an extra of the installed package
 
 
 EDITABLE_CHECK = textwrap.dedent(
@@ -169,9 +173,11 @@ EDITABLE_CHECK = textwrap.dedent(
 
     site.addsitedir(sys.argv[1])  # runs the editable wheel's .pth, which installs its finder
     import maopg
+    from maopg.extras import install_hint
     from maopg.sim.assets import ASSETS_DIR
 
-    print(json.dumps({"maopg": maopg.__file__, "assets": str(ASSETS_DIR)}))
+    hint = install_hint("wandb")
+    print(json.dumps({"maopg": maopg.__file__, "assets": str(ASSETS_DIR), "hint": hint}))
     """
 )
 
@@ -191,3 +197,5 @@ def test_editable_install_reads_top_level_assets(work: Path) -> None:
     src = (work / "src").resolve()
     assert Path(report["maopg"]).resolve() == src / "maopg" / "__init__.py", report
     assert Path(report["assets"]).resolve() == src / "assets", report
+    # the clone's own extra, installed from its root (pip's index has no maopg of this clone)
+    assert report["hint"] == f"pip install -e '.[wandb]' (in {src}, the clone maopg runs from)"

@@ -1,9 +1,10 @@
 """The ``ray`` backend: environments in Ray actors, on this machine or across a cluster.
 
-Ray is an optional extra (``pip install 'maopg[ray]'``); this module imports it only when a
-:class:`RayVectorEnv` is built. ``num_workers`` actors each hold a slice of the environments,
-built by the same bootstrap as a spawned worker's (:func:`~maopg.env.vector.worker_envs`: the
-run's plugins, then what the parent registered). Everything that decides what is simulated
+Ray is an optional extra (``maopg[ray]``; :func:`maopg.extras.install_hint` says how to
+install it): this module imports it only when a :class:`RayVectorEnv` is built.
+``num_workers`` actors each hold a slice of the environments, built by the same bootstrap as
+a spawned worker's (:func:`~maopg.env.vector.worker_envs`: the run's plugins, then what the
+parent registered). Everything that decides what is simulated
 stays in the main process (:class:`~maopg.env.vector.SeededVectorEnv`), so a run's learning
 curve is the same as with ``backend=local`` for any number of actors, and the local backend's
 own random streams are untouched.
@@ -52,7 +53,7 @@ from typing import Any
 import numpy as np
 
 from maopg.env.contract import DecisionPoint, EnvSpec
-from maopg.env.ray_options import INSTALL_HINT, RayOptions, ray_available
+from maopg.env.ray_options import RayOptions, missing_ray, ray_available
 from maopg.env.vector_base import (
     EnvConfig,
     SplitVectorEnv,
@@ -209,7 +210,7 @@ class RayVectorEnv(SplitVectorEnv):
         options: RayOptions | None = None,
     ) -> None:
         if not ray_available():
-            raise ValueError(INSTALL_HINT)
+            raise ValueError(missing_ray())
         import ray
 
         self.options = options or RayOptions()

@@ -8,9 +8,13 @@ import importlib.util
 from dataclasses import dataclass
 from typing import ClassVar
 
+from maopg.extras import install_hint
 from maopg.settings import Settings, setting
 
-INSTALL_HINT = "backend=ray needs Ray: pip install 'maopg[ray]'"
+
+def missing_ray() -> str:
+    """The error of ``backend=ray`` without Ray: how to install it (:func:`install_hint`)."""
+    return f"backend=ray needs Ray: {install_hint('ray')}"
 
 
 def ray_available() -> bool:

@@ -56,6 +56,7 @@ from PIL import Image, ImageDraw, ImageFont
 import maopg  # noqa: F401  (sets MUJOCO_GL=egl before mujoco is imported)
 from maopg.env import DecisionPoint, OptionEnv
 from maopg.env.rollout import ReferencePolicy, TickLimit, goes_on_past
+from maopg.progress import shows_bar
 from maopg.sim.render import CameraRenderer, VideoRenderer, project_points
 from maopg.tasks import ObsLayout, SceneTask, Task, task_entry, task_names
 from maopg.tasks.text import generic_state_lines
@@ -487,7 +488,7 @@ def record_episode(
         total=min(limit, env.spec.max_ticks),
         desc=f"video {path.name}",
         unit="tick",
-        disable=not progress,
+        disable=not shows_bar(progress),
         leave=False,
     )
 

@@ -314,7 +314,7 @@ def _shifted(a: np.ndarray, di: int, dj: int, fill: float | bool) -> np.ndarray:
     return out
 
 
-def _allowed_moves(blocked: np.ndarray) -> list[tuple[int, int, float, np.ndarray]]:
+def legal_moves(blocked: np.ndarray) -> list[tuple[int, int, float, np.ndarray]]:
     """Per move ``(di, dj, length, ok)``: ``ok[i, j]`` when the move from cell (i, j) is legal
     (both cells free and, for a diagonal, both orthogonal neighbours free: no corner cutting)."""
     free = ~blocked
@@ -339,8 +339,8 @@ def cost_to_go(blocked: np.ndarray, seeds: np.ndarray) -> np.ndarray:
     :class:`GridPlanner`. Blocked or unreachable cells are ``inf``. Both methods give the same
     field to the bit (each cell's value is the least fixed point of ``min(neighbour + move)``,
     summed outward from the seeds, whatever order finds it). The relaxation's cost grows with
-    the cells times the longest path, Dijkstra's with the cells, after scipy's import (which a
-    small room is spared); ``python bench/perf/wf_teams.py`` times both per room size.
+    the cells times the longest path, Dijkstra's with the cells; ``python
+    bench/perf/cost_to_go.py`` times both per room size.
     """
     if blocked.size <= RELAXATION_CELLS:
         return relaxed_cost_to_go(blocked, seeds)
@@ -351,7 +351,7 @@ def relaxed_cost_to_go(blocked: np.ndarray, seeds: np.ndarray) -> np.ndarray:
     """:func:`cost_to_go` by Bellman-Ford relaxation over whole-array shifts: about a hundred
     numpy sweeps on a room-sized grid."""
     field = np.where(seeds & ~blocked, 0.0, np.inf)
-    allowed = _allowed_moves(blocked)
+    allowed = legal_moves(blocked)
     while True:
         before = field
         for di, dj, step, ok in allowed:
@@ -362,28 +362,43 @@ def relaxed_cost_to_go(blocked: np.ndarray, seeds: np.ndarray) -> np.ndarray:
 
 
 def dijkstra_cost_to_go(blocked: np.ndarray, seeds: np.ndarray) -> np.ndarray:
-    """:func:`cost_to_go` by scipy's multi-source Dijkstra over the grid's legal moves, each
-    edge reversed (from the neighbour a cell may move to back to the cell), so the distance
-    from the seeds is the cost to go."""
-    from scipy.sparse import coo_matrix  # lazily: only big rooms pay for the import
-    from scipy.sparse.csgraph import dijkstra
+    """:func:`cost_to_go` by multi-source Dijkstra over the grid's legal moves, walked backwards
+    (a settled cell offers its cost plus the move's length to each cell that may move to it:
+    the very sum the relaxation takes, so the two agree to the bit), settling a band at a time.
 
+    Every move is at least 1 long, so no path through an unsettled cell can bring a cell below
+    ``m + 1``, ``m`` the least cost still open: each round settles every open cell under it at
+    once (Dial's buckets, one unit wide) and relaxes the band's moves as numpy index arrays.
+    Rounds grow with the longest path, each with the band's cells, not the grid's
+    (``bench/perf/cost_to_go.py`` times it beside the relaxation and scipy's Dijkstra, which
+    did this before)."""
     ny, nx = blocked.shape
-    ids = np.arange(ny * nx).reshape(ny, nx)
-    heads, tails, lengths = [], [], []
-    for di, dj, step, ok in _allowed_moves(blocked):
-        i, j = np.nonzero(ok)
-        heads.append(ids[i + di, j + dj])
-        tails.append(ids[i, j])
-        lengths.append(np.full(i.size, step))
-    graph = coo_matrix(
-        (np.concatenate(lengths), (np.concatenate(heads), np.concatenate(tails))),
-        shape=(ny * nx, ny * nx),
-    ).tocsr()
-    sources = np.flatnonzero((seeds & ~blocked).ravel())
-    if sources.size == 0:
-        return np.full(blocked.shape, np.inf)
-    return dijkstra(graph, directed=True, indices=sources, min_only=True).reshape(ny, nx)
+    # A blocked border: every neighbour of a free cell is then inside the flat array, and the
+    # flat index of a move, cell + di * width + dj, never wraps onto another row.
+    walled = np.ones((ny + 2, nx + 2), dtype=bool)
+    walled[1:-1, 1:-1] = blocked
+    width = nx + 2
+    moves = [(di * width + dj, step, ok.ravel()) for di, dj, step, ok in legal_moves(walled)]
+    sources = np.zeros_like(walled)
+    sources[1:-1, 1:-1] = seeds & ~blocked
+    field = np.full(walled.size, np.inf)
+    seen = np.zeros(walled.size, dtype=bool)  # given a finite cost, settled or not
+    frontier = np.flatnonzero(sources)  # seen, not settled
+    field[frontier] = 0.0
+    seen[frontier] = True
+    while frontier.size:
+        costs = field[frontier]
+        band = costs < costs.min() + 1.0
+        settled, frontier = frontier[band], frontier[~band]
+        for offset, step, ok in moves:
+            legal = ok[settled - offset]  # the cells that may move onto a settled one
+            ends = settled[legal]
+            before = ends - offset  # distinct: one move, distinct ends
+            field[before] = np.minimum(field[before], field[ends] + step)
+            new = before[~seen[before]]
+            seen[new] = True
+            frontier = np.concatenate([frontier, new])
+    return field.reshape(walled.shape)[1:-1, 1:-1].copy()
 
 
 def _downhill(field: np.ndarray, blocked: np.ndarray) -> np.ndarray:
@@ -392,7 +407,7 @@ def _downhill(field: np.ndarray, blocked: np.ndarray) -> np.ndarray:
     a shortest grid path into the disc."""
     best = np.full(field.shape, np.inf)
     move = np.zeros(field.shape, dtype=np.int8)
-    for k, (di, dj, step, ok) in enumerate(_allowed_moves(blocked)):
+    for k, (di, dj, step, ok) in enumerate(legal_moves(blocked)):
         cand = np.where(ok, _shifted(field, di, dj, np.inf) + step, np.inf)
         better = cand < best
         best[better] = cand[better]

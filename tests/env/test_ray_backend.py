@@ -245,4 +245,5 @@ def test_bad_ray_settings_are_one_line_errors(tmp_path, user_error, setting, mes
 def test_backend_ray_without_ray_installed_says_how_to_get_it(tmp_path, user_error, monkeypatch):
     monkeypatch.setattr("maopg.experiment.run.config.ray_available", lambda: False)
     args = [*RUN, "--total-samples", "100", "--run-dir", str(tmp_path / "run"), "backend=ray"]
-    user_error(main, args, r"backend=ray needs Ray: pip install 'maopg\[ray\]'")
+    # from this clone: its own extra, not a package of pip's index (maopg.extras)
+    user_error(main, args, r"backend=ray needs Ray: pip install -e '\.\[ray\]' \(in /")

@@ -221,7 +221,7 @@ def test_the_panel_lists_each_agents_observation(tmp_path, monkeypatch):
     )
 
 
-def test_cli_records_the_scripted_episode(tmp_path, capsys, monkeypatch):
+def test_cli_records_the_scripted_episode(tmp_path, capsys, monkeypatch, terminal):
     out = tmp_path / "td.mp4"
     from maopg.experiment.cli.eval_cli import main
 
@@ -379,7 +379,7 @@ def test_the_legend_explains_the_caption_colours_at_the_panel_bottom():
     assert not np.all(panel == HIGHLIGHT, axis=-1).any()
 
 
-def test_progress_bar_over_the_ticks_on_stderr(tmp_path, capsys):
+def test_progress_bar_over_the_ticks_on_stderr(tmp_path, capsys, terminal):
     env = make_env("tool_delivery", "continue", overrides={"max_ticks": 4})
     try:
         record_episode(env, RandomPolicy(env.spec, 1), tmp_path / "p.mp4", seed=1, progress=True)

@@ -340,7 +340,7 @@ def trained_run(tmp_path_factory):
     return run_dir
 
 
-def test_evaluate_a_checkpoint(trained_run, tmp_path, capsys):
+def test_evaluate_a_checkpoint(trained_run, tmp_path, capsys, terminal):
     trained = load_trained(trained_run)
     assert trained.path.name == "final.pt" and trained.config.method == "async"
     env = trained.make_env(0)
@@ -444,7 +444,7 @@ def _frames(path: Path) -> list[np.ndarray]:
         reader.close()
 
 
-def test_video_of_a_checkpoint(trained_run, tmp_path, capsys, monkeypatch):
+def test_video_of_a_checkpoint(trained_run, tmp_path, capsys, monkeypatch, terminal):
     out = tmp_path / "trained.mp4"
     titles = []
     monkeypatch.setattr(video, "video_title", lambda *a: titles.append(a) or video_title(*a))
@@ -464,7 +464,7 @@ def test_video_of_a_checkpoint(trained_run, tmp_path, capsys, monkeypatch):
     assert len(a) == len(b) and all(np.array_equal(x, y) for x, y in zip(a, b, strict=True))
 
 
-def test_table_and_plot_commands_on_a_real_run(trained_run, tmp_path, capsys):
+def test_table_and_plot_commands_on_a_real_run(trained_run, tmp_path, capsys, terminal):
     runs = discover_runs([trained_run.parents[2]])
     assert len(runs) == 1 and runs[0].finished and runs[0].samples[-1] >= 180
     root = str(trained_run.parents[2])

@@ -52,7 +52,7 @@ def test_the_final_policy_is_evaluated_and_filmed(events):
     assert video.encoded_image_string[:4] == b"GIF8" and video.width > 100
 
 
-def test_after_training_announces_its_steps_and_shows_their_progress(tmp_path, capfd):
+def test_after_training_announces_its_steps_and_shows_their_progress(tmp_path, capfd, terminal):
     run_dir = tmp_path / "run"
     args = ["--task", "tool_delivery", "--total-samples", "30", "--run-dir", str(run_dir)]
     tiny = ["batch_ticks=30", "num_envs=1", "env.max_ticks=8", "ppo.epochs=1", "plot=false"]

@@ -42,6 +42,7 @@ from maopg.experiment.cli.command_line import (
     command_name,
     run_command,
 )
+from maopg.experiment.evaluation import GREEDY_BY_DEFAULT
 from maopg.sim.checks import add_check_robot_arguments, cmd_check_robot
 
 PROG = command_name("python -m eval")
@@ -65,11 +66,22 @@ def _policy_args(parser: argparse.ArgumentParser) -> None:
         "task settings of a reference policy's environment, e.g. env.turtlebot_robot=diffbot",
     )
     parser.add_argument("--seed", type=at_least(0), default=0)
-    parser.add_argument(
-        "--sample",
-        action="store_true",
-        help="sample options instead of the greedy mode (Mac-DQN: ε-greedy at its final ε)",
+    acting = parser.add_mutually_exclusive_group()
+    flag = "--greedy" if GREEDY_BY_DEFAULT else "--sample"
+    default = f"; default {flag}, maopg.experiment.evaluation.GREEDY_BY_DEFAULT says why"
+    acting.add_argument(
+        "--greedy",
+        dest="sample",
+        action="store_false",
+        help=f"each agent takes its most probable option (Mac-DQN: ε 0){default}",
     )
+    acting.add_argument(
+        "--sample",
+        dest="sample",
+        action="store_true",
+        help=f"sample options as in training (Mac-DQN: ε-greedy at its final ε){default}",
+    )
+    parser.set_defaults(sample=not GREEDY_BY_DEFAULT)
     parser.add_argument(
         "--device",
         choices=DEVICES,

@@ -155,10 +155,10 @@ def _early_plugins(argv: Sequence[str]) -> list[str]:
 def _train(argv: list[str], plugins: list[str]) -> int:
     plugins = [*plugins, *load_plugins(_early_plugins(argv))]
     config, args = parse_args(argv, list(dict.fromkeys(plugins)))
-    from maopg.experiment.training.trainer import train
+    from maopg.experiment.training.trainer import run_summary, train
 
     run_dir = train(config, resume=args.resume, overwrite=args.overwrite)
-    print(f"run directory: {run_dir}")
+    print(run_summary(run_dir))
     return 0
 
 

@@ -29,6 +29,7 @@ from tqdm import tqdm
 from maopg.env import DecisionPoint, OptionEnv
 from maopg.env.rollout import ReferencePolicy, run_episode
 from maopg.experiment.run.directory import EVAL_COLUMNS
+from maopg.progress import shows_bar
 
 BEHAVIOUR_VERSION = 1
 """The version of what :func:`evaluate` computes from the episodes it plays (which episodes, how
@@ -118,7 +119,7 @@ def evaluate(
         range(seed, seed + episodes),
         desc=f"evaluating {label or env.spec.task}",
         unit="episode",
-        disable=not progress,
+        disable=not shows_bar(progress),
         leave=False,
         mininterval=0,  # an episode is a coarse step: show each one, however fast it ran
     )

@@ -23,6 +23,7 @@ import numpy as np
 
 from maopg.env import DecisionPoint, OptionEnv
 from maopg.env.pettingzoo import OptionParallelEnv, decision_point
+from maopg.experiment.evaluation import GREEDY_BY_DEFAULT
 from maopg.experiment.evaluation.loading import Trained, load_trained
 from maopg.learner import Actor
 
@@ -65,9 +66,10 @@ class Policy:
 
 
 def load_policy(
-    path: str | Path, *, greedy: bool = True, seed: int = 0, device: str = "cpu"
+    path: str | Path, *, greedy: bool = GREEDY_BY_DEFAULT, seed: int = 0, device: str = "cpu"
 ) -> Policy:
     """The policy of a checkpoint (a file or a run directory, :func:`load_trained`): its mode
-    (``greedy``) or sampled with ``seed``, on ``device``."""
+    (``greedy``, the default: :data:`~maopg.experiment.evaluation.GREEDY_BY_DEFAULT`) or sampled
+    with ``seed``, on ``device``."""
     trained = load_trained(path, device=device)
     return Policy(trained, trained.actor(greedy=greedy, seed=seed))

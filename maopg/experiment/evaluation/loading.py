@@ -15,6 +15,7 @@ from pathlib import Path
 from torch import nn
 
 from maopg.env import EnvSpec, OptionEnv
+from maopg.experiment.evaluation import GREEDY_BY_DEFAULT
 from maopg.experiment.run.config import TrainConfig
 from maopg.experiment.run.directory import CHECKPOINT, FINAL
 from maopg.experiment.run.methods import Method, get_method
@@ -43,14 +44,15 @@ class Trained:
         """The environment the policy was trained on (task, strategy, observations)."""
         return self.config.env().make(seed)
 
-    def actor(self, *, greedy: bool = True, seed: int = 0) -> Actor:
-        """The trained policy as ``DecisionPoint -> joint option``: the mode (greedy) or a
-        sample seeded with ``seed`` — for Mac-DQN, ε-greedy at its final exploration rate."""
+    def actor(self, *, greedy: bool = GREEDY_BY_DEFAULT, seed: int = 0) -> Actor:
+        """The trained policy as ``DecisionPoint -> joint option``: the mode (greedy, the
+        default: :data:`~maopg.experiment.evaluation.GREEDY_BY_DEFAULT`) or a sample seeded with
+        ``seed`` — for Mac-DQN, ε-greedy at its final exploration rate."""
         return self.method.learner_class.actor(
             self.policy, self.config.learner, greedy=greedy, seed=seed
         )
 
-    def label(self, *, greedy: bool = True) -> str:
+    def label(self, *, greedy: bool = GREEDY_BY_DEFAULT) -> str:
         """Who acts, for a video's title: the method, its training seed and how it acts
         (``async seed 2 (sampled)``, ``mac-dqn seed 0 (ε-greedy)``)."""
         mode = "greedy" if greedy else self.method.learner_class.sampled_name

@@ -34,12 +34,11 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Union, get_args, get_origin, get_type_hints
 
 from maopg.env import OWN_ARGUMENTS, check_overrides
-from maopg.env.ray_options import INSTALL_HINT, RayOptions, ray_available
+from maopg.env.ray_options import RayOptions, missing_ray, ray_available
 from maopg.experiment.run.config_file import read_config_file
 from maopg.experiment.run.methods import get_method, method_names, section_classes
 from maopg.experiment.run.migration import CONFIG_SCHEMA, FLAT_PPO_KEYS, SCHEMA_KEY
-from maopg.experiment.run.wandb_log import INSTALL_HINT as WANDB_HINT
-from maopg.experiment.run.wandb_log import WandbOptions, wandb_available
+from maopg.experiment.run.wandb_log import WandbOptions, missing_wandb, wandb_available
 from maopg.policy.choices import PRECISION_NAMES
 from maopg.settings import Settings, setting, unknown_setting
 from maopg.sim.egl_check import gl_problem
@@ -241,9 +240,9 @@ class TrainConfig(Settings):
         cfg.device = resolve_device(cfg.device)
         cfg.validate()
         if cfg.backend == "ray" and not ray_available():
-            raise ValueError(INSTALL_HINT)
+            raise ValueError(missing_ray())
         if cfg.logger == "wandb" and not wandb_available():
-            raise ValueError(WANDB_HINT)
+            raise ValueError(missing_wandb())
         cfg.learner.validate()
         task_settings = make_config(cfg.task, cfg.env_overrides)  # names, kinds and bounds
         check_task = getattr(cfg.learner, "check_task", None)  # the section's relations to it

@@ -144,11 +144,46 @@ class RunLog:
         self.tb.close()
 
 
-def write_done(run_dir: Path, *, iterations: int, samples: int, wall_time: float) -> Path:
-    """Mark ``run_dir`` finished (atomically: a reader never sees half a marker)."""
+FINAL_FRACTION = 0.1
+"""The share of a run's samples its final figure averages (:func:`final_return`, and the
+studies' ``final``): the "final 10%" of the tables and of the issues' targets."""
+
+
+def final_return(path: Path, fraction: float = FINAL_FRACTION) -> float | None:
+    """Mean per-iteration ``episode_return`` of a ``metrics.csv`` over the last ``fraction`` of
+    its samples (the rows that report one): where training ended. ``None`` when no episode
+    ended there."""
+    rows = read_metrics(path)
+    if not rows:
+        return None
+    last = int(rows[-1]["samples"])
+    tail = [float(r["episode_return"]) for r in rows if int(r["samples"]) > last * (1 - fraction)]
+    tail = [value for value in tail if not math.isnan(value)]
+    return sum(tail) / len(tail) if tail else None
+
+
+def write_done(
+    run_dir: Path,
+    *,
+    iterations: int,
+    samples: int,
+    wall_time: float,
+    evaluation: dict[str, dict[str, float]] | None = None,
+) -> Path:
+    """Mark ``run_dir`` finished (atomically: a reader never sees half a marker). Besides the
+    counts it records the run's ``final_return`` (:func:`final_return`) and, where the final
+    policy was evaluated, ``evaluation``: per way of acting (``greedy``, ``sampled``) its
+    ``episodes``, ``return_mean`` and ``success_rate``."""
     path = run_dir / DONE
     tmp = path.with_name(f".{DONE}.tmp")
-    record = {"iterations": iterations, "samples": samples, "wall_time": wall_time}
+    record: dict[str, Any] = {
+        "iterations": iterations,
+        "samples": samples,
+        "wall_time": wall_time,
+        "final_return": final_return(run_dir / METRICS),
+    }
+    if evaluation:
+        record["evaluation"] = evaluation
     tmp.write_text(json.dumps(record, indent=2) + "\n")
     os.replace(tmp, path)
     return path

@@ -17,6 +17,8 @@ from pathlib import Path
 from PIL import Image
 from tqdm import tqdm
 
+from maopg.progress import shows_bar
+
 MAX_FRAMES = 300
 SCALE = 0.4
 
@@ -53,7 +55,7 @@ def add_video(
             total=frames,
             desc=f"TensorBoard GIF of {mp4.name}",
             unit="frame",
-            disable=not progress,
+            disable=not shows_bar(progress),
             leave=False,
         )
         for k, frame in enumerate(bar):

@@ -1,8 +1,8 @@
 """``logger=wandb``: the run's TensorBoard record mirrored to Weights & Biases.
 
-W&B is an optional extra (``pip install 'maopg[wandb]'``): nothing imports it unless a run asks
-for it, and TensorBoard and ``metrics.csv`` are written as always, so a W&B run is a view of
-the run, never its only record.
+W&B is an optional extra (``maopg[wandb]``; :func:`maopg.extras.install_hint` says how to
+install it): nothing imports it unless a run asks for it, and TensorBoard and ``metrics.csv``
+are written as always, so a W&B run is a view of the run, never its only record.
 
 A run directory keeps one W&B run: its id and the last step sent are in ``wandb.json``, and a
 resumed run continues the same W&B run (``resume="allow"``). W&B cannot delete rows, so
@@ -28,12 +28,16 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, ClassVar
 
+from maopg.extras import install_hint
 from maopg.settings import Settings, setting
 
 STATE = "wandb.json"
 """The run directory's record of its W&B run: ``{"id", "logged", "final"}``."""
 
-INSTALL_HINT = "logger=wandb needs the wandb package: pip install 'maopg[wandb]'"
+
+def missing_wandb() -> str:
+    """The error of ``logger=wandb`` without wandb: how to install it (:func:`install_hint`)."""
+    return f"logger=wandb needs the wandb package: {install_hint('wandb')}"
 
 
 def wandb_available() -> bool:

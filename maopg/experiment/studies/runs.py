@@ -34,14 +34,11 @@ import numpy as np
 
 from maopg.experiment.run.config import TrainConfig
 from maopg.experiment.run.config_file import read_config_file
-from maopg.experiment.run.directory import CONFIG, DONE, METRICS
+from maopg.experiment.run.directory import CONFIG, DONE, FINAL_FRACTION, METRICS
 from maopg.experiment.run.methods import get_method
 
 RETURN = "episode_return"
 PAPER_METRIC = "option_step_reward"
-FINAL_FRACTION = 0.1
-"""The share of a run's samples its final figure averages (:func:`final`): the "final 10%" of
-the tables and of the issues' targets."""
 
 
 @dataclass

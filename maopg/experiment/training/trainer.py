@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import math
 import random
 import shutil
 import sys
@@ -27,7 +28,6 @@ from pathlib import Path
 
 import numpy as np
 import torch
-from tqdm import tqdm
 
 from maopg.env import OptionEnv
 from maopg.env.contract import EnvSpec
@@ -43,6 +43,7 @@ from maopg.experiment.run.directory import (
     DONE,
     EVAL_COLUMNS,
     FINAL,
+    FINAL_FRACTION,
     METRICS,
     TENSORBOARD,
     VIDEO,
@@ -74,6 +75,7 @@ from maopg.learner import (
     save_checkpoint,
 )
 from maopg.policy.joint_size import BuildTarget
+from maopg.progress import run_progress
 
 RESUMABLE_KEYS = (
     "total_samples",
@@ -522,13 +524,12 @@ def _train(config: TrainConfig, lock: RunDirLock, *, resume: bool, overwrite: bo
                 },
             )
 
-        bar = tqdm(
-            total=config.total_samples,
+        bar = run_progress(
+            total=config.total_samples,  # type: ignore[arg-type]
             initial=min(samples, config.total_samples),  # type: ignore[type-var]
             unit="tick",
             desc=f"{config.task}/{config.method}/seed{config.seed}",
-            disable=not config.progress,
-            dynamic_ncols=True,
+            enabled=config.progress,
         )
         watch = StepWatch(envs.spec, bar)
         envs.on_step = watch
@@ -547,6 +548,10 @@ def _train(config: TrainConfig, lock: RunDirLock, *, resume: bool, overwrite: bo
                 except NonFiniteError as err:
                     raise _stopped(err, iteration + 1, samples, checkpointed) from err
                 elapsed = time.perf_counter() - start
+                first = samples == session_samples  # the session's first iteration
+                budget: int = config.total_samples  # type: ignore[assignment]
+                if first and (rounding := rounding_note(budget, samples + ticks, ticks)):
+                    bar.write(f"note: {rounding}", file=sys.stderr)  # a line, not in the bar
                 iteration += 1
                 samples += ticks
                 wall_time += elapsed
@@ -598,13 +603,36 @@ def _train(config: TrainConfig, lock: RunDirLock, *, resume: bool, overwrite: bo
         envs.close()
     failed = True  # the W&B run ends failed unless the after-training steps finish
     try:
-        after_training(run_dir, mirror, estimate=after)
+        evaluated = after_training(run_dir, mirror, estimate=after)
         failed = False
     finally:
         if mirror is not None:
             mirror.close(failed=failed)
-    write_done(run_dir, iterations=iteration, samples=samples, wall_time=wall_time)
+    write_done(
+        run_dir, iterations=iteration, samples=samples, wall_time=wall_time, evaluation=evaluated
+    )
     return run_dir
+
+
+ROUNDING_NOTE = 0.01
+"""How far past ``total_samples`` a run may end, as a share of it, before it says so: every
+iteration ends a little past its ``batch_ticks`` (the options running then finish), which is
+not worth a line; a budget that is no multiple of the iterations (3,000 samples in iterations
+of 2,000) is."""
+
+
+def rounding_note(total: int, samples: int, ticks: int) -> str | None:
+    """The line that says where a run will end, if its iterations all take ``ticks`` like the
+    first of this session (which took it to ``samples``), when that is more than
+    :data:`ROUNDING_NOTE` past ``total``: the loop stops at the end of the iteration that
+    reaches the budget, it never cuts one short. ``None`` when the end is near enough."""
+    end = samples + math.ceil(max(0, total - samples) / ticks) * ticks
+    if end - total <= ROUNDING_NOTE * total:
+        return None
+    return (
+        f"total_samples {total} → about {end}: training stops after the iteration that "
+        f"reaches it, and an iteration here takes {ticks} ticks"
+    )
 
 
 def after_training_plan(config: TrainConfig, estimate: float | None = None) -> str:
@@ -635,7 +663,7 @@ EVAL_TAGS = ("eval/return_greedy", "eval/return_sampled")
 
 def after_training(
     run_dir: Path, mirror: WandbMirror | None = None, *, estimate: float | None = None
-) -> None:
+) -> dict[str, dict[str, float]]:
     """Artifacts of a finished run, each in TensorBoard too: with ``eval_episodes``, the final
     policy's mean return, greedy and sampled, over that many seeded episodes (its option choices
     per agent beside them); with ``plot``, the learning-curve plot; with ``video``, a rollout of
@@ -653,6 +681,9 @@ def after_training(
     with the ``estimate`` of their time when the training measured one),
     and the evaluation, the video and its TensorBoard GIF each show a bar with its own ETA.
     With ``mirror`` the evaluation becomes the W&B run's summary, and the video goes there too.
+    Returns the evaluation for ``done.json`` (:func:`write_done`): per way of acting
+    (``greedy``, ``sampled``) its ``episodes``, ``return_mean`` and ``success_rate``; empty
+    without ``eval_episodes``.
     """
     from torch.utils.tensorboard import SummaryWriter
 
@@ -663,8 +694,9 @@ def after_training(
     if config.plot:
         title = f"{config.task} · {config.method} · seed {config.seed}"
         plot_learning_curve(run_dir / METRICS, run_dir / CURVE, title)
+    evaluated: dict[str, dict[str, float]] = {}
     if not (config.eval_episodes or config.video):
-        return
+        return evaluated
     trained = load_trained(run_dir / FINAL)
     env = trained.make_env(0)
     tb = SummaryWriter(str(run_dir / TENSORBOARD))
@@ -685,6 +717,8 @@ def after_training(
             cut += sum(result.cut)
             summary[tag] = float(np.mean(result.returns))
             kind = tag.split("_")[-1]
+            outcome = result.summary
+            evaluated[kind] = {key: outcome[key] for key in EVALUATED}
             for agent, counts in result.choices.items():
                 total = sum(counts.values())
                 for option, count in counts.items():
@@ -724,3 +758,38 @@ def after_training(
         env.close()
     if mirror is not None:
         mirror.final(summary, video_path)
+    return evaluated
+
+
+EVALUATED = ("episodes", "return_mean", "success_rate")
+"""What ``done.json`` keeps of each final evaluation (:attr:`EvalResult.summary`'s keys)."""
+
+
+def run_summary(run_dir: Path) -> str:
+    """What a finished run ends with on the command line, from its ``done.json``: the samples
+    and time it trained, its final return, its final policy's evaluation greedy and sampled,
+    and the files of the run directory."""
+    done = read_done(run_dir) or {}
+    lines = []
+    if "samples" in done:
+        lines.append(
+            f"trained {done['samples']} samples in {done['iterations']} iterations "
+            f"({about(done['wall_time']).removeprefix('~')} of training)"
+        )
+    if done.get("final_return") is not None:
+        lines.append(
+            f"final return {done['final_return']:.1f} (the training episodes of the last "
+            f"{FINAL_FRACTION:.0%} of the samples)"
+        )
+    for kind, result in done.get("evaluation", {}).items():
+        lines.append(
+            f"final policy, {kind}: return {result['return_mean']:.1f}, success "
+            f"{result['success_rate']:.0%} ({result['episodes']} episodes)"
+        )
+    files = ", ".join(
+        f"{p.name}/" if p.is_dir() else p.name
+        for p in sorted(run_dir.iterdir())
+        if not p.name.startswith(".")
+    )
+    lines.append(f"run directory: {run_dir} ({files})")
+    return "\n".join(lines)

@@ -17,17 +17,17 @@ import time
 from collections.abc import Sequence
 
 import numpy as np
-from tqdm import tqdm
 
 from maopg.env.contract import DecisionPoint, EnvSpec
 from maopg.env.vector_base import StepResult
+from maopg.progress import Progress
 
 
 class StepWatch:
     """Advances ``bar`` by each step's ticks, counts each agent's chosen options, and times the
     collection (:meth:`start` marks where it begins)."""
 
-    def __init__(self, spec: EnvSpec, bar: tqdm) -> None:
+    def __init__(self, spec: EnvSpec, bar: Progress) -> None:
         self.spec = spec
         self.bar = bar
         self.counts = [np.zeros(a.num_options, np.int64) for a in spec.agents]
