@@ -9,7 +9,7 @@ still gets a readable panel.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 from PIL import ImageDraw, ImageFont
@@ -32,19 +32,19 @@ NAME_MAX = 104
 """The widest the names' column gets (a longer name is cut)."""
 
 
+NOTHING = Heading("no state to show: the task's describe() is empty")
+"""The panel of a task that describes nothing (a wrapped PettingZoo game, say)."""
+
+
 def panel_items(task_name: str, state: Mapping[str, Any]) -> list[PanelItem]:
     """What the panel shows of ``Task.describe()``: the task's registered ``panel``, else its
     ``state_lines``, else :func:`generic_state_lines` (also for a task that is not
-    registered)."""
+    registered); :data:`NOTHING` where that is empty."""
+    formatter: Callable[[Mapping[str, Any]], Sequence[PanelItem]] = generic_state_lines
     if task_name in task_names():
         entry = task_entry(task_name)
-        panel = entry.panel_fn()
-        if panel is not None:
-            return panel(state)
-        lines = entry.state_lines_fn()
-        if lines is not None:
-            return list(lines(state))
-    return list(generic_state_lines(state))
+        formatter = entry.panel_fn() or entry.state_lines_fn() or generic_state_lines
+    return list(formatter(state)) or [NOTHING]
 
 
 def fit(draw: ImageDraw.ImageDraw, text: str, width: float, font: ImageFont.FreeTypeFont) -> str:

@@ -169,17 +169,17 @@ def draw_timeline(
     x0 = left + NAME_WIDTH
     scale = (right - x0) / max(ticks, 1)
     pitch = (bottom - top) / max(len(names), 1)
-    bar = max(4, int(pitch) - 3)
+    bar = max(4, int(pitch) - 2)
     for i, (name, row) in enumerate(zip(names, rows, strict=True)):
         y = int(top + i * pitch)
-        draw.text((left, y), name, fill=(200, 200, 205), font=font)
+        draw.text((left, y + bar / 2), name, fill=(200, 200, 205), font=font, anchor="lm")
         for segment in row:
             a, b = x0 + segment.start * scale, x0 + segment.end * scale
             colour = colours.get(segment.option, IDLE_COLOUR)
             draw.rectangle((a, y, max(a, b - 1), y + bar), fill=colour)
             if b - a > draw.textlength(segment.option, font=font) + 4:
                 ink = (0, 0, 0) if sum(colour) > 380 else (255, 255, 255)
-                draw.text((a + 2, y), segment.option, fill=ink, font=font)
+                draw.text((a + 2, y + bar / 2), segment.option, fill=ink, font=font, anchor="lm")
             if segment.chosen:
                 draw.rectangle((a, y, a + 1, y + bar), fill=(255, 255, 255))
     cursor = x0 + now * scale

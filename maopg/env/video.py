@@ -456,16 +456,13 @@ class FrameComposer:
             self._paste(image, x, y)
 
     def _draw_timeline(self, overlay: Overlay) -> None:
-        top, margin = self.timeline_top, 12
-        image, draw = self._image(
-            (0, top, self.width, top + timeline_height(len(self.agent_names)))
-        )
+        n, top, margin = len(self.agent_names), self.timeline_top, 12
+        image, draw = self._image((0, top, self.width, top + timeline_height(n)))
         box = (margin, 2, self.width - margin, image.height - 2)
         ticks = max(self.timeline_ticks, overlay.tick)
-        rows = overlay.timeline or [()] * len(self.agent_names)
-        draw_timeline(
-            draw, box, self.agent_names, rows, ticks, overlay.tick, self.colours, _font(12)
-        )
+        rows = overlay.timeline or [()] * n
+        font = _font(TIMELINE_PITCH[n > 4] - 4)  # the text fits its row's bar
+        draw_timeline(draw, box, self.agent_names, rows, ticks, overlay.tick, self.colours, font)
         self._paste(image, 0, top)
 
     def close(self) -> None:

@@ -227,9 +227,10 @@ class View:
 
 VIDEO_DETAIL = (14, 8, 1)
 """``numslices, numstacks, numquads`` of a fast video frame's spheres, cylinders and boxes:
-half MuJoCo's slices and stacks, boxes' faces undivided. At 640x480 on llvmpipe a frame of
-Water Filling's overview took 23 ms of CPU time instead of 33 ms with the model's (28, 16, 4),
-its pixels hard to tell apart (measured interleaved, 36 frames each, under a load of 16)."""
+half MuJoCo's slices and stacks, boxes' faces undivided, which looks the same at 640x480. On
+llvmpipe a 640x480 overview then costs about two thirds of the CPU time it does with the
+models' (28, 16, 4) (``bench/perf/video_speed.py``, second table: 22 ms for 31 on Water
+Filling)."""
 
 
 class VideoRenderer(CameraRenderer):

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from maopg.env import make_env, video
-from maopg.env.panel import BAR, panel_items
+from maopg.env.panel import BAR, NOTHING, panel_items
 from maopg.env.rollout import RandomPolicy, reference_policy, run_episode
 from maopg.env.video import (
     BACKGROUND,
@@ -202,6 +202,7 @@ def test_panel_items_are_the_tasks_named_quantities():
         "jar levels: [0.50, 1.00, 0.12]"
     ]
     assert panel_items("other_task", {"ticks": 3}) == ["ticks: 3"]
+    assert panel_items("other_task", {}) == [NOTHING]  # a task that describes nothing
 
 
 def test_the_panel_draws_a_bar_per_jar_filled_to_its_level():

@@ -149,10 +149,11 @@ class TrainConfig(Settings):
     ``bench/perf/video_speed.py``)."""
     video_gif: bool = False
     """Also put the rollout into TensorBoard (its IMAGES tab, tag ``rollout``) as an animated
-    GIF: the MP4 read back, shrunk and re-encoded (:mod:`maopg.experiment.run.tb_video`), which
-    takes about a third of the recording's time and grows the event file. Off by default:
-    ``rollout.mp4`` beside the event file plays the same episode; ``video_gif=true`` (with
-    ``video``) adds it."""
+    GIF: the MP4 read back frame by frame, shrunk and re-encoded
+    (:mod:`maopg.experiment.run.tb_video`; its cost per frame is
+    :data:`maopg.experiment.training.eta.GIF_SECONDS_PER_FRAME`), which grows the event file.
+    Off by default: ``rollout.mp4`` beside the event file plays the same episode;
+    ``video_gif=true`` (with ``video``) adds it."""
     plot: bool = True
     """Draw ``learning_curve.png`` at the end (~0.5-1 s, mostly importing matplotlib; ``false``
     skips it, as the tests' short runs do: ``python -m eval plot`` draws any run's curves later

@@ -27,10 +27,10 @@ from maopg.experiment.run.config import TrainConfig
 
 VIDEO_SECONDS_PER_FRAME = 0.13
 """Rendering and encoding one video frame (:data:`maopg.env.video.FRAMES_PER_TICK` a tick),
-beyond the tick itself: ``bench/perf/video_speed.py`` filmed Tool Delivery's scripted episode in
-21.2 s of wall time for 165 frames (0.13 s a frame) at a load average of 7 to 9 on the 2-core
-development machine, Water Filling's in 129 s for 1201 (0.11 s). The busier figure is taken:
-the estimate errs long rather than short."""
+beyond the tick itself: ``bench/perf/video_speed.py`` filmed Tool Delivery's scripted episode,
+165 frames, in 10.1 s of wall time at a load average of 6 to 7 on the 2-core development
+machine (0.06 s a frame; BENCHMARKS.md) and in 21.2 s in a run before it at 5 to 11 (0.13 s).
+The busier figure is taken: the estimate errs long rather than short."""
 GIF_SECONDS_PER_FRAME = 0.045
 """The TensorBoard GIF (``video_gif``) of one frame: :func:`maopg.experiment.run.tb_video.add_video`
 ran at 0.045 s a frame inside a default training run (``python -m train --task tool_delivery
