@@ -371,7 +371,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("timeline", help="one episode's options per agent over time, as a figure")
     _policy_args(p)
-    p.add_argument("--out", type=Path, default=Path("timeline.png"), help="(.png, .svg, .pdf)")
+    p.add_argument(
+        "--out", type=Path, default=Path("timeline.png"), help="figure: .png, .svg or .pdf"
+    )
     p.set_defaults(func=cmd_timeline)
 
     for name, func, text in (
