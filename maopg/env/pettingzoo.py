@@ -34,7 +34,9 @@ from pettingzoo import ParallelEnv
 from maopg.env import make_env
 from maopg.env.contract import DecisionPoint
 from maopg.env.option_env import OptionEnv
-from maopg.env.video import FrameComposer, Overlay, state_lines
+from maopg.env.panel import panel_items
+from maopg.env.timeline import TimelineRecorder
+from maopg.env.video import FrameComposer, Overlay
 
 RENDER_MODES = ("rgb_array",)
 INFO_KEYS = ("choosing", "running", "duration", "ticks", "discounted_reward")
@@ -71,6 +73,8 @@ class OptionParallelEnv(ParallelEnv):
         self._return = 0.0
         self._tick_reward: float | None = None
         self._composer: FrameComposer | None = None
+        self._timeline = TimelineRecorder(env.num_agents)
+        """The options so far, for the frame's timeline strip."""
         if render_mode is not None:
             env.add_tick_listener(self._on_tick)
         # PettingZoo requires the very same space object on every call.
@@ -100,13 +104,16 @@ class OptionParallelEnv(ParallelEnv):
         self._point = self.env.reset(seed=seed)
         self.agents = list(self.possible_agents)
         self._return, self._tick_reward = 0.0, None
+        self._timeline = TimelineRecorder(self.env.num_agents)
         return self._observations(), self._infos()
 
     def step(self, actions: dict[str, int]) -> tuple[dict, dict, dict, dict, dict]:
         point = self._point
         if point is None or not self.agents:
             raise ValueError("step() called before reset() or after the episode ended")
-        self._point = point = self.env.step(self._joint(point, actions))
+        joint = self._joint(point, actions)
+        self._timeline.decide(point)
+        self._point = point = self.env.step(joint)
         self._return += point.reward
         observations, infos = self._observations(), self._infos()
         rewards = dict.fromkeys(self.agents, float(point.reward))
@@ -133,14 +140,16 @@ class OptionParallelEnv(ParallelEnv):
             env = self.env
             title = f"{env.task.name} | {env.strategy.value}"
             self._composer = FrameComposer.of_env(env, title)
+        options = self.env.running_option_names()
         overlay = Overlay(
             tick=point.ticks,
             ret=self._return,
             reward=self._tick_reward,
-            options=self.env.running_option_names(),
+            options=options,
             started=point.choosing.tolist(),
-            state=state_lines(self.env.task.name, self.env.task.describe()),
-            vectors=point.vectors,
+            state=panel_items(self.env.task.name, self.env.task.describe()),
+            progress=self._timeline.progress(options, point.ticks),
+            timeline=self._timeline.rows(),
         )
         return self._composer.compose(overlay)
 
@@ -152,6 +161,7 @@ class OptionParallelEnv(ParallelEnv):
 
     def _on_tick(self, env: OptionEnv, reward: float) -> None:
         self._tick_reward = reward  # the panel's "last tick" reward
+        self._timeline.on_tick(env, reward)
 
     def _require_point(self, method: str) -> DecisionPoint:
         if self._point is None:

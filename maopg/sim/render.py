@@ -25,6 +25,7 @@ import os
 import threading
 import weakref
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import mujoco
 import numpy as np
@@ -51,27 +52,42 @@ def _fit_offscreen_buffer(model: mujoco.MjModel, height: int, width: int) -> Non
     glob.offheight = max(int(glob.offheight), height)
 
 
+QUALITY = ("offsamples", "numslices", "numstacks", "numquads")
+"""The ``<visual><quality>`` settings a GL context is made with."""
+
+
 def make_renderer(
-    model: mujoco.MjModel, height: int, width: int, *, shadows: bool, offsamples: int
+    model: mujoco.MjModel,
+    height: int,
+    width: int,
+    *,
+    shadows: bool,
+    offsamples: int,
+    detail: tuple[int, int, int] | None = None,
 ) -> mujoco.Renderer:
     """A ``mujoco.Renderer`` of ``height`` × ``width`` frames for ``model`` (its offscreen
     buffer enlarged to fit), with or without shadows and at ``offsamples`` multisamples (the
-    costs are in docs/DESIGN.md §2); a machine that cannot render is a one-line
+    costs are in docs/DESIGN.md §2), and MuJoCo's built-in meshes at ``detail`` (``numslices,
+    numstacks, numquads``; default: the model's); a machine that cannot render is a one-line
     :class:`RenderError` before GL is touched."""
     _fit_offscreen_buffer(model, height, width)
     failed = f"cannot render {width}x{height} frames with MUJOCO_GL={os.environ.get('MUJOCO_GL')}"
     problem = gl_problem()  # before GL is touched: a GLFW without a display warns, then fails
     if problem is not None:
         raise RenderError(f"{failed}: {problem}")
-    saved = int(model.vis.quality.offsamples)
-    model.vis.quality.offsamples = offsamples  # read once, when the GL context is made
+    quality = model.vis.quality
+    saved = [int(getattr(quality, key)) for key in QUALITY]
+    # read once, when the GL context is made
+    for key, value in zip(QUALITY, [offsamples, *(detail or saved[1:])], strict=True):
+        setattr(quality, key, value)
     try:
         with GL_LOCK:
             renderer = mujoco.Renderer(model, height, width)
     except Exception as exc:  # MuJoCo and PyOpenGL raise several types, by backend
         raise RenderError(f"{failed}: {exc}") from exc
     finally:
-        model.vis.quality.offsamples = saved
+        for key, value in zip(QUALITY, saved, strict=True):
+            setattr(quality, key, value)
     renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = shadows
     renderer.scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = shadows
     return renderer
@@ -104,13 +120,19 @@ class CameraRenderer:
     """
 
     def __init__(
-        self, model: mujoco.MjModel, height: int = 64, width: int = 64, *, fast: bool = True
+        self,
+        model: mujoco.MjModel,
+        height: int = 64,
+        width: int = 64,
+        *,
+        fast: bool = True,
+        detail: tuple[int, int, int] | None = None,
     ) -> None:
         self.height, self.width = height, width
         self._cull = fast  # a geom out of view may cast a shadow or a reflection into it
         offsamples = 0 if fast else int(model.vis.quality.offsamples)
         self._renderer = make_renderer(
-            model, height, width, shadows=not fast, offsamples=offsamples
+            model, height, width, shadows=not fast, offsamples=offsamples, detail=detail
         )
         _OPEN.add(self)
         _close_all_at_exit()
@@ -118,7 +140,7 @@ class CameraRenderer:
     def render(
         self,
         data: mujoco.MjData,
-        cameras: Sequence[str | int],
+        cameras: Sequence[str | int | mujoco.MjvCamera],
         out: np.ndarray | None = None,
     ) -> np.ndarray:
         """Render each camera into ``out[i]`` (allocated when not given) and return ``out``."""
@@ -150,18 +172,82 @@ class CameraRenderer:
         self.close()
 
 
+@dataclass(frozen=True)
+class View:
+    """Where a picture is taken from: the eye's world position, its axes as the columns of a
+    3x3 matrix (right, up, backward: ``data.cam_xmat``'s convention, the view along ``-z``)
+    and the vertical field of view in degrees (pixels are square)."""
+
+    pos: np.ndarray
+    axes: np.ndarray
+    fovy: float
+
+    @classmethod
+    def of_camera(cls, model: mujoco.MjModel, data: mujoco.MjData, camera: str | int) -> View:
+        """The current pose of a model's camera (``data`` current, as for a render)."""
+        cam = camera if isinstance(camera, int) else model.camera(camera).id
+        axes = data.cam_xmat[cam].reshape(3, 3).copy()
+        return cls(data.cam_xpos[cam].copy(), axes, float(model.cam_fovy[cam]))
+
+    def free_camera(self, model: mujoco.MjModel) -> mujoco.MjvCamera:
+        """MuJoCo's free camera at this view: it looks from ``pos`` along ``-z`` with the
+        model's ``<visual><global fovy>``, which must be this view's (a free camera has no
+        field of view of its own), and without roll (``x`` level)."""
+        if not np.isclose(self.fovy, float(model.vis.global_.fovy)):
+            raise ValueError(
+                f"a free camera sees {model.vis.global_.fovy} degrees, not {self.fovy}"
+            )
+        forward = -self.axes[:, 2]
+        camera = mujoco.MjvCamera()
+        camera.type = mujoco.mjtCamera.mjCAMERA_FREE
+        camera.azimuth = float(np.degrees(np.arctan2(forward[1], forward[0])))
+        camera.elevation = float(np.degrees(np.arcsin(np.clip(forward[2], -1.0, 1.0))))
+        camera.distance = 1.0
+        camera.lookat[:] = self.pos + forward
+        return camera
+
+    def project(self, points: np.ndarray, height: int, width: int) -> np.ndarray:
+        """Pixel coordinates ``[N, 2]`` (x right, y down, from the top-left corner) of world
+        ``points [N, 3]`` in a ``height`` x ``width`` picture; a point behind the eye is NaN."""
+        local = (np.asarray(points, dtype=np.float64).reshape(-1, 3) - self.pos) @ self.axes
+        depth = -local[:, 2]
+        focal = 0.5 * height / np.tan(np.radians(self.fovy) / 2)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            x = 0.5 * width + focal * local[:, 0] / depth
+            y = 0.5 * height - focal * local[:, 1] / depth
+        pixels = np.stack([x, y], axis=1)
+        pixels[depth <= 0] = np.nan
+        return pixels
+
+
+VIDEO_DETAIL = (14, 8, 1)
+"""``numslices, numstacks, numquads`` of a fast video frame's spheres, cylinders and boxes:
+half MuJoCo's slices and stacks, boxes' faces undivided, which looks the same at 640x480. On
+llvmpipe a 640x480 overview then costs about two thirds of the CPU time it does with the
+models' (28, 16, 4) (``bench/perf/video_speed.py``, second table: 22 ms for 31 on Water
+Filling)."""
+
+
 class VideoRenderer(CameraRenderer):
-    """Larger frames from one camera (the arena's overview), with shadows and multisampling."""
+    """Larger frames of one camera, or of a :class:`View` (a video's framed overview).
+
+    ``fast`` (default) renders as the observations do (no shadows, reflections nor
+    multisampling, only the geoms in view) and with coarser built-in meshes
+    (:data:`VIDEO_DETAIL`), which costs a fraction of MuJoCo's defaults at 640x480 on llvmpipe
+    (``bench/perf/video_speed.py``); ``fast=False`` keeps the defaults.
+    """
 
     def __init__(
         self,
         model: mujoco.MjModel,
         height: int = 480,
         width: int = 640,
-        camera: str | int = "overview",
+        camera: str | int | View = "overview",
+        *,
+        fast: bool = True,
     ) -> None:
-        super().__init__(model, height, width, fast=False)
-        self.camera = camera
+        super().__init__(model, height, width, fast=fast, detail=VIDEO_DETAIL if fast else None)
+        self.camera = camera.free_camera(model) if isinstance(camera, View) else camera
         self._frame = np.empty((1, height, width, 3), dtype=np.uint8)
 
     def frame(self, data: mujoco.MjData) -> np.ndarray:
@@ -185,16 +271,6 @@ def project_points(
     as columns, the camera looks along its ``-z`` axis with ``+y`` up, and ``model.cam_fovy`` is
     the vertical field of view in degrees (pixels are square, so the horizontal focal length is
     the vertical one). ``data`` must be current (``mj_forward`` or a step since the last move),
-    as for a render: this is how a video labels what its overview shows.
+    as for a render.
     """
-    cam = camera if isinstance(camera, int) else model.camera(camera).id
-    axes = data.cam_xmat[cam].reshape(3, 3)
-    local = (np.asarray(points, dtype=np.float64).reshape(-1, 3) - data.cam_xpos[cam]) @ axes
-    depth = -local[:, 2]
-    focal = 0.5 * height / np.tan(np.radians(model.cam_fovy[cam]) / 2)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        x = 0.5 * width + focal * local[:, 0] / depth
-        y = 0.5 * height - focal * local[:, 1] / depth
-    pixels = np.stack([x, y], axis=1)
-    pixels[depth <= 0] = np.nan
-    return pixels
+    return View.of_camera(model, data, camera).project(points, height, width)

@@ -15,13 +15,18 @@ robot's camera image.
 MuJoCo does not stop on a numerical instability: it resets the state and carries on, counting
 a warning. :meth:`Scene.advance` checks the counters and raises :class:`PhysicsInstability`, so
 a tick whose physics was reset is never taken for a real one.
+
+A video films the motion between ticks through :meth:`Scene.watch_substeps`: a listener called
+at evenly spaced physics steps inside every advance, on the state the physics reached there.
+The scene knows nothing of what it is for (no task, no frame), and watching leaves the
+trajectory bit for bit as it is.
 """
 
 from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -241,6 +246,7 @@ class Scene:
             self._welds_of.setdefault(b, []).append(eq)
         self._eq_data0 = model.eq_data.copy()
         self._geom_rgba0 = model.geom_rgba.copy()
+        self._watch: tuple[int, Callable[[], None]] | None = None
         mujoco.mj_forward(model, self.data)
         self.robots: dict[str, RobotAdapter] = {
             prefix: spec.adapter_class()(model, self.data, prefix, spec.resolve_constants())
@@ -295,14 +301,54 @@ class Scene:
             if warnings[warning].number:
                 raise self._instability(warning, meaning, start, seconds)
 
+    def watch_substeps(self, frames: int, listener: Callable[[], None] | None) -> None:
+        """Call ``listener()`` ``frames - 1`` times inside every :meth:`advance`, after the
+        physics steps ``round(n * j / frames)`` (``j = 1 .. frames - 1`` of its ``n`` steps; fewer
+        when ``n < frames``), so that, with the state the advance ends in, a tick is seen
+        ``frames`` times evenly spaced; ``None`` stops watching.
+
+        At each call ``data`` holds the physics state reached there, with positions, cameras and
+        lights computed from it (``mj_kinematics``, ``mj_camlight``): what a renderer draws and
+        a task's labels read. The listener must change nothing. The trajectory stays bit for bit
+        what it is unwatched: ``mj_step`` is only split at those steps (n steps in two calls are
+        the same n steps), and the positions computed there are derived fields that the next
+        ``mj_step`` computes afresh from ``qpos``.
+        """
+        if frames < 1:
+            raise ValueError(f"frames must be at least 1, got {frames}")
+        self._watch = None if listener is None else (frames, listener)
+
+    def _marks(self, n: int) -> list[int]:
+        """The steps (counted from the advance's start) after which the watcher is called."""
+        if self._watch is None:
+            return []
+        frames = self._watch[0]
+        return sorted({round(n * j / frames) for j in range(1, frames)} - {0, n})
+
+    def _mj_steps(self, done: int, count: int, marks: list[int]) -> None:
+        """``count`` physics steps, ``done`` of the advance's already taken; the watcher is
+        called after each step in ``marks``."""
+        model, data = self.model, self.data
+        end = done + count
+        for mark in marks:
+            if done < mark <= end:
+                mujoco.mj_step(model, data, nstep=mark - done)
+                done = mark
+                mujoco.mj_kinematics(model, data)
+                mujoco.mj_camlight(model, data)
+                self._watch[1]()  # type: ignore[index]  (marks exist only while watched)
+        if done < end:
+            mujoco.mj_step(model, data, nstep=end - done)
+
     def _step(self, seconds: float) -> None:
         n, chunk = self._schedule(seconds)
         model, data = self.model, self.data
+        marks = self._marks(n)
         if chunk == n:
             for robot in self.robots.values():
                 robot.control_dt = seconds
                 robot.apply()
-            mujoco.mj_step(model, data, nstep=n)
+            self._mj_steps(0, n, marks)
             mujoco.mj_forward(model, data)
             return
         for start in range(0, n, chunk):
@@ -318,7 +364,7 @@ class Scene:
                     if start % period == 0:
                         robot.control_dt = period * self.timestep
                         robot.apply()
-            mujoco.mj_step(model, data, nstep=chunk)
+            self._mj_steps(start, chunk, marks)
         mujoco.mj_forward(model, data)
 
     def _instability(

@@ -1,8 +1,8 @@
 """Task registry: everything specific to a task, declared once where the task registers.
 
 A :class:`TaskEntry` names the task class and its config dataclass and carries what the rest of
-the project would otherwise look up by task name: the scripted reference policy, the video
-panel's state lines and its training defaults. What a study makes of a task (its seeds, a
+the project would otherwise look up by task name: the scripted reference policy, what the video
+panel shows of its state and its training defaults. What a study makes of a task (its seeds, a
 return threshold, settings of one method's runs) belongs to the study
 (:mod:`maopg.experiment.studies`), not here. Classes and functions may be given as
 ``"package.module:Attr"`` strings (dotted attributes allowed: ``"pkg.task:MyTask.Config"``),
@@ -27,6 +27,7 @@ from maopg.tasks.config import TaskConfig
 
 if TYPE_CHECKING:
     from maopg.tasks.base import Task
+    from maopg.tasks.panel import PanelFn
     from maopg.tasks.scripting import ScriptedFactory
 
 StateLines = Callable[[Mapping[str, Any]], list[str]]
@@ -45,7 +46,11 @@ class TaskEntry:
     scripted: ScriptedFactory | str | None = None
     """``factory(config) -> policy(point) -> joint option``, the hand-written reference."""
     state_lines: StateLines | str | None = None
-    """``describe()`` dict -> the video panel's lines (default: ``generic_state_lines``)."""
+    """``describe()`` dict -> the video panel's lines of text, for a task without a ``panel``
+    (default: ``generic_state_lines``)."""
+    panel: PanelFn | str | None = None
+    """``describe()`` dict -> the video panel's named quantities (:mod:`maopg.tasks.panel`:
+    bars, named values, headings, text); it takes precedence over ``state_lines``."""
     train_defaults: Mapping[str, Any] = field(default_factory=dict)
     """Training-config fields this task defaults (``batch_ticks``, ``total_samples``, ...) and
     learner settings under their command-line names (``ppo.explore_eps``), which every method
@@ -74,6 +79,9 @@ class TaskEntry:
     def state_lines_fn(self) -> StateLines | None:
         return resolve(self.state_lines)
 
+    def panel_fn(self) -> PanelFn | None:
+        return resolve(self.panel)
+
 
 _TASKS: dict[str, TaskEntry] = {}
 
@@ -88,6 +96,7 @@ def register_task(
     config: type[TaskConfig] | str | None = None,
     scripted: ScriptedFactory | str | None = None,
     state_lines: StateLines | str | None = None,
+    panel: PanelFn | str | None = None,
     train_defaults: Mapping[str, Any] | None = None,
     defaults: Mapping[str, Any] | None = None,
     overwrite: bool = False,
@@ -126,6 +135,7 @@ def register_task(
         config=config,
         scripted=scripted,
         state_lines=state_lines,
+        panel=panel,
         train_defaults=MappingProxyType(dict(train_defaults or {})),
         defaults=MappingProxyType(dict(defaults or {})),
     )

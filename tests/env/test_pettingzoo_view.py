@@ -108,7 +108,7 @@ def test_render_draws_the_video_frame_headlessly():
             view.render()
         view.reset(seed=0)
         first = view.render()
-        assert first.dtype == np.uint8 and first.shape == (784, 960, 3)
+        assert first.dtype == np.uint8 and first.shape == (848, 960, 3)  # the timeline under
         assert first.std() > 10  # a picture, not a blank canvas
         view.step({"turtlebot0": 0, "turtlebot1": 1, "fetch": 2})
         assert np.any(view.render() != first)  # the robots moved, the panel's tick changed

@@ -5,8 +5,8 @@ from __future__ import annotations
 import pytest
 
 from maopg.env import make_env
+from maopg.env.panel import panel_items
 from maopg.env.rollout import RandomPolicy, reference_policy, run_episode
-from maopg.env.video import state_lines
 from maopg.tasks import register_task, registry
 from maopg.tasks.tool_delivery.task import ToolDelivery
 
@@ -33,7 +33,7 @@ def test_a_task_without_a_scripted_policy_says_so_and_random_still_works(plain_d
     result = run_episode(env, reference_policy("random", env, seed=2), seed=0)
     assert result.ticks == 10
     # and its video panel falls back to the generic state lines
-    assert state_lines(env.spec.task, {"human_stage": 0}) == ["human stage: 0"]
+    assert panel_items(env.spec.task, {"human_stage": 0}) == ["human stage: 0"]
 
 
 def test_the_scripted_policy_follows_the_env_config() -> None:

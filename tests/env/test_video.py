@@ -1,19 +1,22 @@
-"""Headless rollout videos on the real Tool Delivery scene: frame count, size, overlay, seed."""
+"""Headless rollout videos on the real scenes: frame count, size, overlay, seed, labels."""
 
 from __future__ import annotations
 
 import hashlib
+import itertools
 
 import imageio.v2 as imageio
 import numpy as np
 import pytest
 
 from maopg.env import make_env, video
-from maopg.env.rollout import RandomPolicy, run_episode
+from maopg.env.panel import BAR, NOTHING, panel_items
+from maopg.env.rollout import RandomPolicy, reference_policy, run_episode
 from maopg.env.video import (
     BACKGROUND,
     BLOCK,
     CAPTION,
+    FRAMES_PER_TICK,
     GAP,
     HIGHLIGHT,
     LEGEND,
@@ -24,15 +27,14 @@ from maopg.env.video import (
     TILE,
     FrameComposer,
     Overlay,
-    generic_state_lines,
-    observation_lines,
     record_episode,
-    state_lines,
     tile_grid,
+    timeline_height,
     video_title,
 )
-from maopg.sim.render import project_points
-from maopg.tasks import ObsLayout
+from maopg.sim.framing import overview_view
+from maopg.tasks.panel import Field, Gauge, Heading
+from maopg.tasks.text import generic_state_lines
 
 
 def _read(path):
@@ -47,15 +49,16 @@ def _short_env(seed: int = 0):
     return make_env("tool_delivery", "continue", seed=seed, overrides={"max_ticks": 12})
 
 
-def test_short_rollout_writes_one_frame_per_tick(tmp_path):
+def test_short_rollout_writes_four_frames_per_tick(tmp_path):
     env = _short_env()
     try:
         result = record_episode(env, RandomPolicy(env.spec, 1), tmp_path / "v.mp4", seed=1, fps=5)
     finally:
         env.close()
-    assert result.ticks == 12 and result.frames == result.ticks + 1
+    assert FRAMES_PER_TICK == 4
+    assert result.ticks == 12 and result.frames == 4 * result.ticks + 1
     frames = _read(result.path)
-    assert frames.shape == (13, *result.shape)
+    assert frames.shape == (49, *result.shape)
     height, width, _ = result.shape
     assert height % BLOCK == 0 and width % BLOCK == 0  # the writer never had to resize
     assert height >= OVERVIEW_SIZE[0] + CAPTION and width >= OVERVIEW_SIZE[1]
@@ -72,8 +75,8 @@ def test_water_filling_video_shows_both_robots(tmp_path):
     finally:
         env.close()
     frames = _read(result.path)
-    assert frames.shape == (7, *result.shape)
-    tiles = frames[:, OVERVIEW_SIZE[0] + CAPTION :].astype(np.int16)
+    assert frames.shape == (25, *result.shape)
+    tiles = frames[:, OVERVIEW_SIZE[0] + CAPTION : OVERVIEW_SIZE[0] + CAPTION + TILE]
     assert tiles[0].std() > 10  # the robots' camera tiles are rendered
 
 
@@ -143,15 +146,16 @@ def test_panel_shows_the_last_tick_reward():
 
 
 def test_overlay_rewards_are_the_tick_rewards(tmp_path, monkeypatch):
-    """Per frame: the reward of its tick, and the return so far; they add up to the episode's."""
+    """Per tick: the reward of its tick, and the return so far; they add up to the episode's.
+    The frames inside a tick show the last tick's figures."""
     overlays = []
-    compose = FrameComposer.compose
+    compose = FrameComposer.compose_in_place
 
-    def spy(self, overlay):
+    def spy(self, overlay, **kwargs):
         overlays.append(overlay)
-        return compose(self, overlay)
+        return compose(self, overlay, **kwargs)
 
-    monkeypatch.setattr(FrameComposer, "compose", spy)
+    monkeypatch.setattr(FrameComposer, "compose_in_place", spy)
     env = _short_env()
     ticks = []
     env.add_tick_listener(lambda _env, reward: ticks.append(reward))
@@ -159,66 +163,78 @@ def test_overlay_rewards_are_the_tick_rewards(tmp_path, monkeypatch):
         result = record_episode(env, RandomPolicy(env.spec, 1), tmp_path / "v.mp4", seed=1)
     finally:
         env.close()
-    assert len(overlays) == result.frames == len(ticks) + 1
-    assert [o.tick for o in overlays] == list(range(result.ticks + 1))
-    assert overlays[0].reward is None and overlays[0].ret == 0.0
-    rewards = [o.reward for o in overlays[1:]]
+    assert len(overlays) == result.frames == 4 * len(ticks) + 1  # Tool Delivery: 50 steps a tick
+    ends = overlays[::4]  # the reset frame, then each tick's last
+    assert [o.tick for o in ends] == list(range(result.ticks + 1))
+    assert [o.tick for o in overlays[1::4]] == list(range(result.ticks))  # inside the next tick
+    assert ends[0].reward is None and ends[0].ret == 0.0
+    rewards = [o.reward for o in ends[1:]]
     assert rewards == ticks
     assert len(set(rewards)) > 1  # not a constant: the random episode has more than tick costs
-    assert [o.ret for o in overlays[1:]] == pytest.approx(np.cumsum(rewards).tolist())
+    assert [o.ret for o in ends[1:]] == pytest.approx(np.cumsum(rewards).tolist())
     assert sum(rewards) == pytest.approx(result.ret)
-    assert overlays[-1].ret == pytest.approx(result.ret)
+    assert ends[-1].ret == pytest.approx(result.ret)
 
 
-def test_state_lines():
-    lines = state_lines(
+def test_panel_items_are_the_tasks_named_quantities():
+    td = panel_items(
         "tool_delivery",
         {"human_stage": 1, "staged": [2], "carried": [[1], []], "delivered": [True, False, False]},
     )
-    assert lines == [
-        "human stage 1 (needs tool 1)",
-        "staged on desk: [2]",
-        "turtlebot0 carries: [1]",
-        "turtlebot1 carries: []",
-        "delivered: t0=yes t1=no t2=no",
+    assert td == [
+        Heading("humans: tools received"),
+        Gauge("human", 1 / 3, "1/3, needs tool 1"),
+        Heading("who carries what"),
+        Field("turtlebot0", "tool 1"),
+        Field("turtlebot1", "nothing"),
+        Field("desk", "tool 2"),
+        Field("delivered", "tool 0"),
     ]
+    wf = {"levels": [0.25, 1.0], "known_levels": [0.5, 1.0], "elapsed": [4, 0], "fills": 1}
+    assert panel_items("water_filling", wf) == [
+        Heading("jar levels (| = last seen)"),
+        Gauge("jar 0", 0.25, "0.25, seen 4 ago", mark=0.5),
+        Gauge("jar 1", 1.0, "1.00, seen 0 ago", mark=1.0),
+        Field("fills", "1"),
+    ]
+    # a task without a panel: its describe() as lines
     assert generic_state_lines({"jar_levels": [0.5, 1.0, 0.125]}) == [
         "jar levels: [0.50, 1.00, 0.12]"
     ]
-    assert state_lines("other_task", {"ticks": 3}) == ["ticks: 3"]
-    wf = {"levels": [0.25, 1.0], "known_levels": [0.5, 1.0], "elapsed": [4, 0], "fills": 1}
-    assert state_lines("water_filling", wf) == [
-        "jar 0: level 0.25 (seen 0.50, 4 ticks ago)",
-        "jar 1: level 1.00 (seen 1.00, 0 ticks ago)",
-        "fills: 1",
-    ]
+    assert panel_items("other_task", {"ticks": 3}) == ["ticks: 3"]
+    assert panel_items("other_task", {}) == [NOTHING]  # a task that describes nothing
 
 
-def test_observation_lines_name_the_fields_and_wrap():
-    layout = ObsLayout.of(location=4, levels=2)
-    vector = np.array([0, 1, 0, 0, 0.5, -0.25], np.float32)
-    assert observation_lines("tb", layout, vector, lambda text: True) == [
-        "tb: location 0 1 0 0 levels 0.5 -0.25"
-    ]
-    narrow = observation_lines("tb", layout, vector, lambda text: len(text) <= 20)
-    assert narrow == ["tb: location 0 1 0 0", "  levels 0.5 -0.25"]
-    assert observation_lines("x", None, np.ones(2), lambda text: True) == ["x: obs 1 1"]
-
-
-def test_the_panel_lists_each_agents_observation(tmp_path, monkeypatch):
-    overlays = []
-    compose = FrameComposer.compose
-    monkeypatch.setattr(FrameComposer, "compose", lambda s, o: overlays.append(o) or compose(s, o))
-    env = _short_env()
+def test_the_panel_draws_a_bar_per_jar_filled_to_its_level():
+    """Water Filling's panel: a jar's bar grows with its level, its mark moves with the level
+    the robots last saw, and nothing outside the panel changes."""
+    env = make_env("water_filling", "continue", seed=0, overrides={"max_ticks": 6})
+    frames = []
     try:
-        record_episode(env, RandomPolicy(env.spec, 1), tmp_path / "v.mp4", seed=1)
-        first = env.reset(seed=1)
+        env.reset(seed=0)
+        for level, seen in ((0.2, 1.0), (0.9, 1.0), (0.9, 0.5)):
+            state = {
+                "levels": [level, 1.0, 1.0],
+                "known_levels": [seen, 1.0, 1.0],
+                "elapsed": [0, 0, 0],
+                "fills": 0,
+            }
+            overlay = _overlay(3, state=panel_items("water_filling", state))
+            frames.append(_compose(env, overlay))
     finally:
         env.close()
-    assert all(len(o.vectors) == 3 for o in overlays)
-    assert all(
-        np.array_equal(a, b) for a, b in zip(overlays[0].vectors, first.vectors, strict=True)
-    )
+    panel = np.zeros(frames[0].shape[:2], bool)
+    panel[: OVERVIEW_SIZE[0], OVERVIEW_SIZE[1] :] = True
+    for a, b in ((0, 1), (1, 2)):
+        changed = np.any(frames[a] != frames[b], axis=-1)
+        assert changed.any() and not changed[~panel].any()
+
+    def filled(frame):  # the bars' pixels in the panel
+        return np.all(frame[panel] == BAR, axis=-1).sum()
+
+    assert filled(frames[1]) > filled(frames[0]) + 30  # 0.9 vs 0.2 of jar 0's bar
+    # the mark moved, not the level: only the pixels of the 3 px wide mark differ
+    assert abs(filled(frames[1]) - filled(frames[2])) <= 3 * 11
 
 
 def test_cli_records_the_scripted_episode(tmp_path, capsys, monkeypatch, terminal):
@@ -231,20 +247,56 @@ def test_cli_records_the_scripted_episode(tmp_path, capsys, monkeypatch, termina
     printed = capsys.readouterr()
     assert "return 259.0 in 41 ticks" in printed.out
     assert "video td.mp4" in printed.err and "tick" in printed.err  # the progress bar
-    assert len(_read(out)) == 42
+    assert len(_read(out)) == 4 * 41 + 1
     assert titles == [("tool_delivery", "continue", "scripted", 0)]
 
 
 def test_recording_does_not_change_the_episode(tmp_path):
-    """Under ``all`` (idling agents): same decisions, return and length as a plain rollout."""
+    """Under ``all`` (idling agents): same decisions, return, length and physics, tick by
+    tick, as a plain rollout, though the video films inside every tick."""
     env = make_env("tool_delivery", "all", seed=0, overrides={"max_ticks": 25})
+    states = []
+    env.add_tick_listener(lambda e, _r: states.append(e.task.scene.state()["qpos"]))
     try:
         plain = run_episode(env, RandomPolicy(env.spec, 4), seed=2)
+        filmed = len(states)
         video = record_episode(env, RandomPolicy(env.spec, 4), tmp_path / "all.mp4", seed=2)
     finally:
         env.close()
     assert (video.ret, video.ticks, video.solved) == (plain.ret, plain.ticks, plain.solved)
-    assert video.frames == plain.ticks + 1
+    assert video.frames == 4 * plain.ticks + 1
+    assert len(states) == 2 * filmed
+    assert all(np.array_equal(a, b) for a, b in zip(states[:filmed], states[filmed:], strict=True))
+
+
+def test_the_frames_inside_a_tick_are_the_physics_states_it_passes_through(tmp_path, monkeypatch):
+    """Four frames a tick, each rendered from the state the physics reached there: the
+    overview changes from frame to frame inside a tick while the Turtlebots drive; a task
+    without a scene shows its tick four times instead."""
+    overviews = []
+    compose = FrameComposer.compose_in_place
+
+    def spy(self, overlay, **kwargs):
+        frame = compose(self, overlay, **kwargs)
+        overviews.append(frame[: OVERVIEW_SIZE[0], : OVERVIEW_SIZE[1]].astype(np.int16))
+        return frame
+
+    monkeypatch.setattr(FrameComposer, "compose_in_place", spy)
+    env = make_env("tool_delivery", "continue", seed=0, overrides={"max_ticks": 3})
+    try:
+        video = record_episode(env, reference_policy("scripted", env), tmp_path / "td.mp4")
+    finally:
+        env.close()
+    assert video.frames == len(overviews) == 1 + 4 * 3
+    for a, b in itertools.pairwise(overviews[1:]):
+        assert np.abs(a - b).max() > 50  # something moved between consecutive frames
+    overviews.clear()
+    grid = make_env("box_pushing_grid", "continue", seed=0, overrides={"max_ticks": 2})
+    try:
+        video = record_episode(grid, reference_policy("scripted", grid), tmp_path / "grid.mp4")
+    finally:
+        grid.close()
+    assert video.frames == 1 + 4 * 2 and len(overviews) == 3  # drawn once a tick, shown 4 times
 
 
 def test_a_big_team_gets_rows_of_smaller_tiles_each_with_its_caption():
@@ -268,7 +320,8 @@ def test_a_big_team_gets_rows_of_smaller_tiles_each_with_its_caption():
     assert (grid.side, grid.cols, grid.rows) == (192, 4, 2)
     height, width, _ = frame.shape
     assert width == ROW_WIDTH and height % BLOCK == 0 and width % BLOCK == 0
-    assert height <= OVERVIEW_SIZE[0] + 2 * (TILE + CAPTION + 2 * GAP)
+    strip = timeline_height(8)
+    assert height <= OVERVIEW_SIZE[0] + 2 * (TILE + CAPTION + 2 * GAP) + strip + BLOCK
     for i in range(len(names)):
         x, y = grid.cell(i, width)
         caption = frame[y : y + grid.caption, x : x + grid.side]
@@ -276,8 +329,8 @@ def test_a_big_team_gets_rows_of_smaller_tiles_each_with_its_caption():
         assert not np.all(plain[y : y + grid.caption, x : x + grid.side] == HIGHLIGHT, -1).any()
         tile = frame[y + grid.caption : y + grid.caption + grid.tile, x : x + grid.side]
         assert tile.shape == (192, 192, 3) and tile.std() > 5, names[i]
-    below = frame[y + grid.caption + grid.tile :]
-    assert np.all(below == BACKGROUND), "nothing is drawn past the last row"
+    below = frame[y + grid.caption + grid.tile : composer.timeline_top]
+    assert below.size and np.all(below == BACKGROUND), "nothing between the tiles and timeline"
 
 
 def test_tile_rows_stay_within_the_frame_width():
@@ -287,12 +340,15 @@ def test_tile_rows_stay_within_the_frame_width():
         assert (grid.rows == 1) == (agents <= 3) and (grid.side == TILE) == (agents <= 6)
 
 
+def _overlay(n, **fields):
+    """A fixed overlay for ``n`` agents, with ``fields`` changed."""
+    base = dict(tick=0, ret=0.0, reward=None, options=["-"] * n, started=[False] * n, state=["s"])
+    return Overlay(**{**base, **fields})
+
+
 def _compose(env, overlay=None, **settings):
     """One frame of ``env``'s current state (a fixed overlay unless given)."""
-    n = len(env.spec.agent_names)
-    overlay = overlay or Overlay(
-        tick=0, ret=0.0, reward=None, options=["-"] * n, started=[False] * n, state=["s"]
-    )
+    overlay = overlay or _overlay(len(env.spec.agent_names))
     composer = FrameComposer(env.task, env.spec.agent_names, **{"title": "t", **settings})
     try:
         return composer.compose(overlay)
@@ -328,9 +384,8 @@ def test_labels_are_drawn_at_the_robots_and_jars_projections():
         labelled, plain = _compose(env), _compose(env, labels=False)
         labels = env.task.labels()
         scene = env.task.scene
-        spots = project_points(
-            scene.model, scene.data, "overview", [xyz for _, xyz in labels], *OVERVIEW_SIZE
-        )
+        view = overview_view(scene.model, scene.data, OVERVIEW_SIZE[1] / OVERVIEW_SIZE[0])
+        spots = view.project(np.array([xyz for _, xyz in labels]), *OVERVIEW_SIZE)
     finally:
         env.close()
     assert [text for text, _ in labels] == ["vehicle", "drone", "jar 0", "jar 1", "jar 2"]
@@ -339,12 +394,12 @@ def test_labels_are_drawn_at_the_robots_and_jars_projections():
     ys, xs = np.nonzero(changed)
     for (text, _), (x, y) in zip(labels, spots, strict=True):
         assert 0 <= x < OVERVIEW_SIZE[1] and 0 <= y < OVERVIEW_SIZE[0], text
-        near = (np.abs(xs - x) < 40) & (np.abs(ys - y) < 30)
-        assert near.sum() > 50, f"{text} is labelled where it stands"
-    # every changed pixel belongs to some label near its point
+        near = (np.abs(xs - x) < 40) & (ys - y < 5) & (y - ys < 45)
+        assert near.sum() > 50, f"{text} is labelled where it stands, just over it"
+    # every changed pixel belongs to some label near its point (a dot, a box over it)
     close = np.zeros(len(xs), bool)
     for x, y in spots:
-        close |= (np.abs(xs - x) < 60) & (np.abs(ys - y) < 30)
+        close |= (np.abs(xs - x) < 60) & (ys - y < 5) & (y - ys < 45)
     assert close.all()
 
 
@@ -395,10 +450,10 @@ def test_labels_at_the_picture_edges_stay_inside_and_points_behind_are_skipped(m
     try:
         env.reset(seed=0)
         data, model = env.task.scene.data, env.task.scene.model
-        cam = model.camera("overview").id
-        eye, axes = data.cam_xpos[cam], data.cam_xmat[cam].reshape(3, 3)
         height, width = OVERVIEW_SIZE
-        focal = 0.5 * height / np.tan(np.radians(model.cam_fovy[cam]) / 2)
+        view = overview_view(model, data, width / height)  # what the video films
+        eye, axes = view.pos, view.axes
+        focal = 0.5 * height / np.tan(np.radians(view.fovy) / 2)
 
         def at(u, v):  # the world point 5 m deep that the overview shows at pixel (u, v)
             ray = (u - width / 2) / focal * axes[:, 0] - (v - height / 2) / focal * axes[:, 1]

@@ -17,6 +17,7 @@ from maopg.env.rollout import reference_policy, run_episode
 from maopg.env.video import video_title
 from maopg.experiment.cli.eval_cli import main
 from maopg.experiment.cli.train_cli import main as train_main
+from maopg.experiment.evaluation import timeline
 from maopg.experiment.evaluation.evaluate import evaluate
 from maopg.experiment.evaluation.loading import load_trained
 from maopg.experiment.run.config import RUN_SECTIONS, TrainConfig
@@ -451,7 +452,7 @@ def test_video_of_a_checkpoint(trained_run, tmp_path, capsys, monkeypatch, termi
     main(["video", "--checkpoint", str(trained_run), "--out", str(out), "--seed", "3"])
     printed = capsys.readouterr()
     ticks = int(printed.out.split(" in ")[1].split(" ticks")[0])
-    assert len(_frames(out)) == ticks + 1
+    assert len(_frames(out)) == 4 * ticks + 1
     assert "video trained.mp4" in printed.err  # the progress bar
     # the title names the checkpoint's method and training seed apart from the episode's seed
     assert titles == [("tool_delivery", "continue", "async seed 0 (greedy)", 3)]
@@ -462,6 +463,17 @@ def test_video_of_a_checkpoint(trained_run, tmp_path, capsys, monkeypatch, termi
     main([*args, str(tmp_path / "b.mp4")])
     a, b = _frames(tmp_path / "a.mp4"), _frames(tmp_path / "b.mp4")
     assert len(a) == len(b) and all(np.array_equal(x, y) for x, y in zip(a, b, strict=True))
+
+
+def test_timeline_of_a_checkpoint(trained_run, tmp_path, capsys, monkeypatch):
+    out = tmp_path / "plots" / "trained.svg"
+    titles = []
+    draw = timeline.draw_figure
+    monkeypatch.setattr(timeline, "draw_figure", lambda *a: titles.append(a[3]) or draw(*a))
+    main(["timeline", "--checkpoint", str(trained_run), "--out", str(out), "--seed", "3"])
+    assert f"{out}: options of 3 agents over" in capsys.readouterr().out
+    assert out.read_text().lstrip().startswith("<?xml")
+    assert "| async seed 0 (greedy) | episode seed 3: return" in titles[0]
 
 
 def test_table_and_plot_commands_on_a_real_run(trained_run, tmp_path, capsys, terminal):

@@ -127,7 +127,7 @@ def test_a_task_without_video_frame_films_its_state_panel(tasks, tmp_path):
         video = record_episode(env, RandomPolicy(env.spec, 0), tmp_path / "spread.mp4")
     finally:
         env.close()
-    assert video.frames == 26 and video.path.stat().st_size > 0
+    assert video.frames == 1 + 4 * 25 and video.path.stat().st_size > 0
 
 
 def test_workers_build_a_registered_pettingzoo_task(tasks, tmp_path):

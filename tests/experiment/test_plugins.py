@@ -69,7 +69,7 @@ def test_a_users_task_trains_in_workers_resumes_evaluates_and_films(tmp_path):
         frames = list(reader.iter_data())
     finally:
         reader.close()
-    assert len(frames) == 61 and frames[0].std() > 0  # 60 ticks + the reset frame
+    assert len(frames) == 241 and frames[0].std() > 0  # the reset frame, 4 for each of 60 ticks
 
     # the saved plugins are imported before the parser checks --task's choices
     resume = ["--resume", "--run-dir", str(run), "--task", "berries", "--total-samples", "800"]

@@ -12,6 +12,7 @@ from maopg.experiment.cli.train_cli import main
 from maopg.experiment.evaluation.evaluate import EVAL_MAX_TICKS
 from maopg.experiment.run.config import TrainConfig
 from maopg.experiment.training.eta import (
+    GIF_SECONDS_PER_FRAME,
     PLOT_SECONDS,
     SETUP_SECONDS,
     VIDEO_SECONDS_PER_FRAME,
@@ -29,8 +30,12 @@ def test_the_estimate_is_made_of_the_measured_rates():
     training, after = estimate_run(config, 400, RATES, max_ticks=150)
     assert training == pytest.approx(600 / 100.0)
     evaluation = 2 * 5 * 120 * 0.005
-    video = 120 * 0.005 + 121 * VIDEO_SECONDS_PER_FRAME
+    video = 120 * 0.005 + (4 * 120 + 1) * VIDEO_SECONDS_PER_FRAME  # four frames a tick
     assert after == pytest.approx(SETUP_SECONDS + evaluation + video + PLOT_SECONDS)
+    # the TensorBoard GIF, when asked for, reads every frame back
+    gif = TrainConfig(total_samples=1000, backend="local", num_envs=2, video_gif=True)
+    _, with_gif = estimate_run(gif, 400, RATES, max_ticks=150)
+    assert with_gif == pytest.approx(after + (4 * 120 + 1) * GIF_SECONDS_PER_FRAME)
     # two threads step the 4 environments: one environment alone ticks at half the rate
     threads = TrainConfig(total_samples=1000, backend="threads", num_envs=4, video=False)
     _, after = estimate_run(threads, 400, RATES, max_ticks=150)
@@ -46,7 +51,7 @@ def test_an_endless_task_is_estimated_at_the_bounds():
     rates = RunRates(samples_per_s=50.0, collecting_s=1.0, ticks=1000, episode_length=None)
     training, after = estimate_run(config, 1000, rates, max_ticks=10**9)
     assert training == 0.0
-    video = VIDEO_MAX_TICKS * 0.001 + (VIDEO_MAX_TICKS + 1) * VIDEO_SECONDS_PER_FRAME
+    video = VIDEO_MAX_TICKS * 0.001 + (4 * VIDEO_MAX_TICKS + 1) * VIDEO_SECONDS_PER_FRAME
     assert after == pytest.approx(SETUP_SECONDS + 2 * EVAL_MAX_TICKS * 0.001 + video)
 
 

@@ -18,7 +18,7 @@ SHORT = ["batch_ticks=60", "num_envs=2", "env.max_ticks=30", "ppo.epochs=1", "pl
 def events(tmp_path_factory) -> EventAccumulator:
     run_dir = tmp_path_factory.mktemp("tb") / "run"
     args = ["--task", "tool_delivery", "--total-samples", "120", "--run-dir", str(run_dir)]
-    assert train_main([*args, *SHORT, "progress=false", "eval_episodes=2"]) == 0
+    assert train_main([*args, *SHORT, "progress=false", "eval_episodes=2", "video_gif=true"]) == 0
     accumulator = EventAccumulator(str(run_dir / "tb"), size_guidance={"images": 0, "scalars": 0})
     accumulator.Reload()
     return accumulator
@@ -42,7 +42,7 @@ def test_option_choices_are_logged_per_agent_each_iteration(events):
         assert math.isclose(total, 1.0, rel_tol=1e-6)
 
 
-def test_the_final_policy_is_evaluated_and_filmed(events):
+def test_the_final_policy_is_evaluated_and_filmed_with_the_gif_asked_for(events):
     (greedy,) = events.Scalars("eval/return_greedy")
     (sampled,) = events.Scalars("eval/return_sampled")
     assert greedy.step == sampled.step >= 120
@@ -64,6 +64,11 @@ def test_after_training_announces_its_steps_and_shows_their_progress(tmp_path, c
         err,
     )
     assert plan, err
-    for bar in ("evaluating eval/return_greedy", "video rollout.mp4", "TensorBoard GIF of"):
+    for bar in ("evaluating eval/return_greedy", "video rollout.mp4"):
         assert bar in err, bar
-    assert plan.start() < err.index("video rollout.mp4") < err.index("GIF of")
+    assert plan.start() < err.index("video rollout.mp4")
+    # the TensorBoard GIF is opt-in (video_gif): none by default
+    assert "GIF" not in err
+    events = EventAccumulator(str(run_dir / "tb"), size_guidance={"images": 0})
+    events.Reload()
+    assert "rollout" not in events.Tags()["images"]

@@ -321,7 +321,7 @@ def test_video_of_the_trained_policy(tmp_path, method):
         frames = [frame.shape for frame in reader.iter_data()]
     finally:
         reader.close()
-    assert len(frames) == episode.ticks + 1 and 0 < episode.ticks <= 30
+    assert len(frames) == 4 * episode.ticks + 1 and 0 < episode.ticks <= 30
     assert len(set(frames)) == 1 and frames[0][0] >= 64 and frames[0][2] == 3
 
 

@@ -54,13 +54,16 @@ def test_render_larger_than_the_offscreen_buffer_is_handled() -> None:
     assert scene.model.vis.global_.offwidth >= 300 and scene.model.vis.global_.offheight >= 200
 
 
-def test_video_renderer_frames_the_overview_with_the_nicer_settings(td_scene) -> None:
+def test_video_renderer_frames_the_overview_fast_or_with_mujocos_defaults(td_scene) -> None:
     scene = td_scene()
     with VideoRenderer(scene.model, 120, 160) as video:
         frame = video.frame(scene.data)
         again = video.frame(scene.data)
-    assert frame.shape == (120, 160, 3) and frame.std() > 5.0
+    with VideoRenderer(scene.model, 120, 160, fast=False) as nice:
+        shaded = nice.frame(scene.data)
+    assert frame.shape == shaded.shape == (120, 160, 3) and frame.std() > 5.0
     assert frame is not again and np.array_equal(frame, again)
+    assert not np.array_equal(frame, shaded)  # shadows and multisampling show
     assert scene.model.vis.quality.offsamples == 4, "the observation setting must not leak"
 
 

@@ -14,11 +14,13 @@ import numpy as np
 import pytest
 
 from maopg.env import Strategy, make_env
+from maopg.env.panel import panel_items
 from maopg.env.pettingzoo import OptionParallelEnv
 from maopg.env.rollout import RandomPolicy, reference_policy, run_episode
-from maopg.env.video import OVERVIEW_SIZE, state_lines
-from maopg.sim.render import project_points
+from maopg.env.video import OVERVIEW_SIZE
+from maopg.sim.framing import overview_view
 from maopg.tasks import SceneTask, Task, TaskConfig, task_entry, task_names
+from maopg.tasks.panel import Field, Gauge, Heading
 
 TASKS = task_names()
 MAX_TICKS = 60
@@ -77,15 +79,16 @@ def test_spec_spaces_and_the_reset_point_agree(task: str, settings: dict) -> Non
         observations, _ = parallel.reset(seed=0)
         for name, obs in observations.items():
             assert parallel.observation_space(name).contains(obs), name
-        lines = state_lines(task, env.task.describe())
-        assert lines and all(isinstance(line, str) for line in lines)
+        items = panel_items(task, env.task.describe())
+        assert items and all(isinstance(item, str | Heading | Field | Gauge) for item in items)
         if isinstance(env.task, SceneTask):  # a video labels these on its overview
             labels = env.task.labels()
             names = [text for text, _ in labels[: spec.num_agents]]
             assert names == list(env.task.agent_names), "the robots come first"
             scene = env.task.scene
             points = np.array([xyz for _, xyz in labels])
-            pixels = project_points(scene.model, scene.data, "overview", points, *OVERVIEW_SIZE)
+            view = overview_view(scene.model, scene.data, OVERVIEW_SIZE[1] / OVERVIEW_SIZE[0])
+            pixels = view.project(points, *OVERVIEW_SIZE)
             assert ((pixels >= 0) & (pixels < OVERVIEW_SIZE[::-1])).all(), "all in the picture"
     finally:
         env.close()

@@ -32,7 +32,7 @@ def test_built_in_tasks_declare_what_the_project_looks_up() -> None:
         "backend": "processes",
     }
     for entry in (td, wf):
-        assert callable(entry.scripted_factory()) and callable(entry.state_lines_fn())
+        assert callable(entry.scripted_factory()) and callable(entry.panel_fn())
         assert entry.config_class() is entry.task_class().Config
 
 
@@ -64,6 +64,7 @@ def test_a_users_task_registers_by_class_or_by_lazy_name() -> None:
     assert isinstance(entry, TaskEntry) and entry.config is ToolDelivery.Config
     assert task_entry("my_delivery") is entry and "my_delivery" in task_names()
     assert entry.scripted_factory() is None and entry.state_lines_fn() is None
+    assert entry.panel_fn() is None
     lazy = register_task("lazy_delivery", "maopg.tasks.tool_delivery.task:ToolDelivery")
     assert lazy.config == "maopg.tasks.tool_delivery.task:ToolDelivery.Config"
     assert lazy.config_class() is ToolDelivery.Config and lazy.task_class() is ToolDelivery

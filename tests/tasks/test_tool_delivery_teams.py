@@ -13,10 +13,11 @@ import numpy as np
 import pytest
 
 from maopg.env import make_env
+from maopg.env.panel import panel_items
 from maopg.env.rollout import RandomPolicy, reference_policy, run_episode
-from maopg.env.video import state_lines
 from maopg.sim.planning import occupancy_grid
 from maopg.tasks import make_config
+from maopg.tasks.panel import Field, Gauge
 from maopg.tasks.tool_delivery import constants as td
 from maopg.tasks.tool_delivery.config import Config
 from maopg.tasks.tool_delivery.scene import build_scene
@@ -197,15 +198,21 @@ def test_cameras_render_only_the_choosing_robots_and_the_panel_lists_everyone() 
     points: list = []
     try:
         run_episode(env, reference_policy("scripted", env), seed=0, on_step=points.append)
-        lines = state_lines("tool_delivery", env.task.describe())
+        items = panel_items("tool_delivery", env.task.describe())
     finally:
         env.close()
     chosen = [list(np.flatnonzero(p.choosing)) for p in points if p.choosing.any()]
     assert rendered == chosen and any(len(c) < 8 for c in chosen)
-    assert [line.split(" stage")[0] for line in lines[:3]] == ["human 0", "human 1", "human 2"]
-    assert lines[3].startswith("staged on desk 0") and lines[4].startswith("staged on desk 1")
-    assert [line.split(" ")[0] for line in lines[5:11]] == [f"turtlebot{w}" for w in range(6)]
-    assert lines[-1].startswith("delivered: t0=yes") and "t8=" in lines[-1]
+    assert [item.name for item in items if isinstance(item, Gauge)] == [
+        "human 0",
+        "human 1",
+        "human 2",
+    ]
+    fields = {item.name: item.value for item in items if isinstance(item, Field)}
+    turtlebots = [name for name in fields if name.startswith("turtlebot")]
+    assert turtlebots == [f"turtlebot{w}" for w in range(6)]
+    assert "desk 0" in fields and "desk 1" in fields
+    assert fields["delivered"].startswith("tool 0")
 
 
 def test_an_interrupted_search_that_finds_nothing_leaves_the_tool_where_it_is() -> None:

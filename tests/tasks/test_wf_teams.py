@@ -19,7 +19,8 @@ from maopg.env.rollout import RandomPolicy, reference_policy, run_episode
 from maopg.options.base import Execution
 from maopg.sim.planning import RELAXATION_CELLS, dijkstra_cost_to_go, relaxed_cost_to_go
 from maopg.tasks import load, make_config
-from maopg.tasks.water_filling.display import state_lines
+from maopg.tasks.panel import Field, Gauge
+from maopg.tasks.water_filling.display import panel
 from maopg.tasks.water_filling.scene import arena_path, arena_source, read_arena
 from maopg.tasks.water_filling.scripted import split_jars
 
@@ -243,14 +244,15 @@ def test_one_start_setting_still_moves_the_only_robot_of_its_kind() -> None:
     assert arena.starts[-1] == (1.0, -1.0) and len(arena.starts) == 4
 
 
-def test_the_panel_tabulates_many_jars() -> None:
+def test_the_panel_has_a_bar_per_jar() -> None:
     state = {
         "levels": [0.5] * 8,
         "known_levels": [1.0] * 8,
         "elapsed": list(range(8)),
         "fills": 3,
     }
-    lines = state_lines(state)
-    assert len(lines) == 2 * 4 + 1 and lines[-1] == "fills: 3"
-    assert lines[0].split() == ["jar", "0", "1", "2", "3", "4", "5"]
-    assert lines[4].split() == ["jar", "6", "7"] and lines[7].split() == ["ago", "6", "7"]
+    items = panel(state)
+    gauges = [item for item in items if isinstance(item, Gauge)]
+    assert [g.name for g in gauges] == [f"jar {c}" for c in range(8)]
+    assert all(g.fraction == 0.5 and g.mark == 1.0 for g in gauges)
+    assert gauges[7].text == "0.50, seen 7 ago" and items[-1] == Field("fills", "3")

@@ -3,5 +3,5 @@
 
 - :mod:`.command_line` — what both share: plugins first, user errors as one line;
 - :mod:`.train_cli` — ``train``: a run from flags, ``key=value`` settings and a config file;
-- :mod:`.eval_cli` — ``eval``: evaluate, video, plot, table, check-robot, reproduce.
+- :mod:`.eval_cli` — ``eval``: evaluate, video, timeline, plot, table, check-robot, reproduce.
 """

@@ -6,6 +6,7 @@ python -m eval evaluate --checkpoint runs/tool_delivery/async/seed0 --episodes 2
 python -m eval evaluate --reference scripted --task tool_delivery --episodes 10
 python -m eval evaluate --reference scripted --task tool_delivery env.turtlebot_robot=diffbot
 python -m eval video --checkpoint runs/tool_delivery/async/seed0 --out out/td_async.mp4
+python -m eval timeline --checkpoint runs/tool_delivery/async/seed0 --out out/td_async.png
 python -m eval plot runs/ --out out/plots
 python -m eval plot runs/ --reference-episodes 0     # no scripted / random reference lines
 python -m eval table runs/ --threshold tool_delivery=200
@@ -107,7 +108,7 @@ SETTING = re.compile(r"^([A-Za-z_][\w.]*)=")
 """A ``key=value`` argument."""
 
 
-SETTINGS_COMMANDS = ("evaluate", "video", "reproduce")
+SETTINGS_COMMANDS = ("evaluate", "video", "timeline", "reproduce")
 """The subcommands that take ``key=value`` settings."""
 
 
@@ -268,7 +269,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
 
 
 def cmd_video(args: argparse.Namespace) -> int:
-    from maopg.env.video import record_episode
+    from maopg.env.video import FPS, record_episode
 
     _, who, env, policy, _ = _policy_and_env(args)
     try:
@@ -277,7 +278,7 @@ def cmd_video(args: argparse.Namespace) -> int:
             policy,
             args.out,
             seed=args.seed,
-            fps=args.fps,
+            fps=args.fps or FPS,
             policy_label=who,
             progress=not args.no_progress,
         )
@@ -288,6 +289,19 @@ def cmd_video(args: argparse.Namespace) -> int:
         f"{video.path}: {video.frames} frames {video.shape[1]}x{video.shape[0]}, "
         f"return {video.ret:.1f} in {video.ticks} ticks, solved {video.solved}{cut}"
     )
+    return 0
+
+
+def cmd_timeline(args: argparse.Namespace) -> int:
+    from maopg.experiment.evaluation.timeline import check_out, write_timeline
+
+    check_out(args.out)
+    _, who, env, policy = _policy_and_env(args)
+    try:
+        path, played = write_timeline(env, policy, args.out, seed=args.seed, policy_label=who)
+    finally:
+        env.close()
+    print(f"{path}: options of {len(played.rows)} agents over {played.ticks} ticks")
     return 0
 
 
@@ -451,9 +465,16 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("video", help="record one episode as a headless MP4")
     _policy_args(p)
     p.add_argument("--out", type=Path, required=True)
-    p.add_argument("--fps", type=at_least(1), default=4)
+    p.add_argument("--fps", type=at_least(1), help="frames a second (default: four ticks a second)")
     _progress_arg(p, "the ticks")
     p.set_defaults(func=cmd_video)
+
+    p = sub.add_parser("timeline", help="one episode's options per agent over time, as a figure")
+    _policy_args(p)
+    p.add_argument(
+        "--out", type=Path, default=Path("timeline.png"), help="figure: .png, .svg or .pdf"
+    )
+    p.set_defaults(func=cmd_timeline)
 
     for name, func, text in (
         ("plot", cmd_plot, "learning curves (PNG + SVG) per task from run directories"),

@@ -3,7 +3,8 @@
 - :mod:`.loading` — a run directory or checkpoint back to its config, environment and actor;
 - :mod:`.inference` — :func:`~.inference.load_policy`, acting from Python or PettingZoo;
 - :mod:`.evaluate` — episodes of a trained or reference policy, and the evaluation during
-  training (its schedule and seeds).
+  training (its schedule and seeds);
+- :mod:`.timeline` — an episode's options per agent as a figure (``python -m eval timeline``).
 """
 
 GREEDY_BY_DEFAULT = True

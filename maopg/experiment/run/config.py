@@ -150,7 +150,15 @@ class TrainConfig(Settings):
     """Show progress bars on stderr (training, and the evaluation and video at the end)."""
     video: bool = True
     """Record a rollout of the trained policy (seed 0) to ``rollout.mp4`` at the end
-    (~45 s on Water Filling; ``video=false`` skips it, as the reproduction grid does)."""
+    (``video=false`` skips it, as the reproduction grid does; its cost is in
+    ``bench/perf/video_speed.py``)."""
+    video_gif: bool = False
+    """Also put the rollout into TensorBoard (its IMAGES tab, tag ``rollout``) as an animated
+    GIF: the MP4 read back frame by frame, shrunk and re-encoded
+    (:mod:`maopg.experiment.run.tb_video`; its cost per frame is
+    :data:`maopg.experiment.training.eta.GIF_SECONDS_PER_FRAME`), which grows the event file.
+    Off by default: ``rollout.mp4`` beside the event file plays the same episode;
+    ``video_gif=true`` (with ``video``) adds it."""
     plot: bool = True
     """Draw ``learning_curve.png`` at the end (~0.5-1 s, mostly importing matplotlib; ``false``
     skips it, as the tests' short runs do: ``python -m eval plot`` draws any run's curves later

@@ -3,10 +3,12 @@
 TensorBoard plays videos only as animated GIFs inside an image summary; torch's ``add_video``
 makes that GIF with moviepy, which is no dependency of ours. Pillow (one) writes GIFs, so the
 MP4 the run already recorded is read back, shrunk and re-encoded here. The GIF is kept small
-because it is stored inside the event file: every second frame of a long video, 40% of the size,
-64 colours, at most :data:`MAX_FRAMES` frames. Reading and shrinking the frames takes about
-as long as a third of the recording did (5 s for a 150-tick Tool Delivery video on 2 cores), so
-it shows a progress bar of its own.
+because it is stored inside the event file: at most :data:`MAX_FRAMES` frames (every k-th of a
+longer video, so that the GIF still shows the whole episode), 40% of the size, 64 colours.
+Reading and shrinking the frames takes a while
+(:data:`maopg.experiment.training.eta.GIF_SECONDS_PER_FRAME`), so it shows a progress bar of its
+own. A run makes the GIF only when asked (``video_gif``,
+:class:`~maopg.experiment.run.config.TrainConfig`).
 """
 
 from __future__ import annotations
@@ -48,7 +50,7 @@ def add_video(
     reader = imageio.get_reader(mp4)
     try:
         fps = float(reader.get_meta_data().get("fps", 4.0))
-        every = 2 if frames > MAX_FRAMES else 1
+        every = max(1, -(-frames // MAX_FRAMES))
         kept: list[Image.Image] = []
         bar = tqdm(
             reader,

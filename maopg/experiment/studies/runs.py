@@ -144,7 +144,8 @@ def flatten_config(config: dict[str, Any]) -> dict[str, Any]:
 
 NOT_LEARNT = frozenset(
     {"task", "method", "seed", "run_dir", "plugins", "progress", "video", "plot", "logger"}
-    | {"video_sample", "checkpoint_every", "backend", "num_workers", "device", "torch_threads"}
+    | {"video_sample", "video_gif", "checkpoint_every", "backend", "num_workers", "device"}
+    | {"torch_threads"}
     | {"eval_episodes", "eval_every", "eval_during_episodes", "eval_during_sample"}
 )
 """Settings that identify a run or say where and how it ran and logged, not what it learnt

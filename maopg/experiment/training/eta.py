@@ -7,34 +7,34 @@ mean time of this session's evaluations, or estimated as their episodes until on
 the training rate is measured without them.
 
 The bar's own ETA covers the samples only, yet a run is not over when they are: the final
-evaluation, the video and its GIF, the plot take their time (about 30 s on Tool Delivery's
-defaults, minutes on Water Filling). Their cost is estimated from the run's own measurements —
-the training rate, the time one environment tick takes while collecting (acting and stepping,
-timed by :class:`maopg.experiment.training.watch.StepWatch`) and the mean length of the
-episodes seen in training — plus a per-frame cost of the video that training never measures (it
-renders no overview), a constant measured once. It is an estimate, labelled as one: a greedy
-policy's episodes may be longer than the training's, and a parallel backend's tick cost per
-environment is taken as if its environments ran fully in parallel (the conservative side).
+evaluation, the video (and its GIF, with ``video_gif``), the plot take their time (about 30 s on
+Tool Delivery's defaults, minutes on Water Filling). Their cost is estimated from the run's own
+measurements — the training rate, the time one environment tick takes while collecting (acting
+and stepping, timed by :class:`maopg.experiment.training.watch.StepWatch`) and the mean length
+of the episodes seen in training — plus a per-frame cost of the video that training never
+measures (it renders no overview), a constant measured once. It is an estimate, labelled as one:
+a greedy policy's episodes may be longer than the training's, and a parallel backend's tick cost
+per environment is taken as if its environments ran fully in parallel (the conservative side).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-from maopg.env.video import VIDEO_MAX_TICKS
+from maopg.env.video import FRAMES_PER_TICK, VIDEO_MAX_TICKS
 from maopg.experiment.evaluation.evaluate import EVAL_MAX_TICKS
 from maopg.experiment.run.config import TrainConfig
 
-VIDEO_SECONDS_PER_FRAME = 0.3
-"""Rendering, encoding and the TensorBoard GIF of one video frame, beyond the tick itself,
-measured on the 2-core development machine on Tool Delivery (whose overview costs about what
-Water Filling's does: :data:`maopg.env.video.VIDEO_MAX_TICKS`). With two other jobs running,
-``time python -m eval video --reference random --task tool_delivery --no-progress --out v.mp4``
-took 27 s for 151 frames, 3 s of it start-up (0.15 s a frame), and
-:func:`maopg.experiment.run.tb_video.add_video` 4.2 s on that file (0.03 s a frame); inside a
-default training run (``python -m train --task tool_delivery --total-samples 1600``) on a
-busier machine the video bar ran at 3.3 frames/s (0.30 s) and the GIF at 0.045 s a frame. The
-busier figure is taken: the estimate errs long rather than short."""
+VIDEO_SECONDS_PER_FRAME = 0.13
+"""Rendering and encoding one video frame (:data:`maopg.env.video.FRAMES_PER_TICK` a tick),
+beyond the tick itself: ``bench/perf/video_speed.py`` filmed Tool Delivery's scripted episode,
+165 frames, in 10.1 s of wall time at a load average of 6 to 7 on the 2-core development
+machine (0.06 s a frame; BENCHMARKS.md) and in 21.2 s in a run before it at 5 to 11 (0.13 s).
+The busier figure is taken: the estimate errs long rather than short."""
+GIF_SECONDS_PER_FRAME = 0.045
+"""The TensorBoard GIF (``video_gif``) of one frame: :func:`maopg.experiment.run.tb_video.add_video`
+ran at 0.045 s a frame inside a default training run (``python -m train --task tool_delivery
+--total-samples 1600``) on a busy 2-core machine."""
 SETUP_SECONDS = 2.0
 """Loading ``final.pt``, building the evaluation environment and the TensorBoard writer."""
 PLOT_SECONDS = 1.0
@@ -78,7 +78,7 @@ def after_training_seconds(config: TrainConfig, rates: RunRates, max_ticks: int)
     """The estimated time of what follows training (``max_ticks``: the task's episode limit,
     the length guessed while no episode has ended): 2 x ``eval_episodes`` episodes of the
     training's mean length (bounded at :data:`EVAL_MAX_TICKS`), the video's ticks (bounded at
-    :data:`VIDEO_MAX_TICKS`) with their frames, the plot, and the set-up they share."""
+    :data:`VIDEO_MAX_TICKS`) with their frames (and GIF), the plot, and the set-up they share."""
     length = min(rates.episode_length or max_ticks, max_ticks)
     tick = tick_seconds(config, rates)
     seconds = 0.0
@@ -88,7 +88,8 @@ def after_training_seconds(config: TrainConfig, rates: RunRates, max_ticks: int)
         seconds += 2 * config.eval_episodes * min(length, EVAL_MAX_TICKS) * tick
     if config.video:
         filmed = min(length, VIDEO_MAX_TICKS)
-        seconds += filmed * tick + (filmed + 1) * VIDEO_SECONDS_PER_FRAME
+        per_frame = VIDEO_SECONDS_PER_FRAME + (GIF_SECONDS_PER_FRAME if config.video_gif else 0.0)
+        seconds += filmed * tick + (FRAMES_PER_TICK * filmed + 1) * per_frame
     if config.plot:
         seconds += PLOT_SECONDS
     return seconds

@@ -82,6 +82,7 @@ RESUMABLE_KEYS = (
     "progress",
     "video",
     "video_sample",
+    "video_gif",
     "eval_episodes",
     "eval_every",
     "eval_during_episodes",
@@ -650,7 +651,8 @@ def after_training_plan(config: TrainConfig, estimate: float | None = None) -> s
     if config.plot:
         steps.append("the learning-curve plot")
     if config.video:
-        steps.append("a rollout video of one episode and its TensorBoard GIF")
+        gif = " and its TensorBoard GIF" if config.video_gif else ""
+        steps.append(f"a rollout video of one episode{gif}")
     if not steps:
         return ""
     guess = f" (estimated {about(estimate)})" if estimate is not None else ""
@@ -668,7 +670,7 @@ def after_training(
     policy's mean return, greedy and sampled, over that many seeded episodes (its option choices
     per agent beside them); with ``plot``, the learning-curve plot; with ``video``, a rollout of
     the trained policy (seed 0; sampled, or greedy with ``video_sample=false``) as
-    ``rollout.mp4``.
+    ``rollout.mp4`` (in TensorBoard too, as a GIF, with ``video_gif``).
 
     The policy is loaded back from ``final.pt`` the way ``python -m eval`` loads it, so what is
     reported is what the saved checkpoint does. The video's length is bounded
@@ -679,7 +681,8 @@ def after_training(
 
     With ``progress``, one line first names the steps to come (:func:`after_training_plan`,
     with the ``estimate`` of their time when the training measured one),
-    and the evaluation, the video and its TensorBoard GIF each show a bar with its own ETA.
+    and the evaluation, the video and its TensorBoard GIF (``video_gif``) each show a bar with its
+    own ETA.
     With ``mirror`` the evaluation becomes the W&B run's summary, and the video goes there too.
     Returns the evaluation for ``done.json`` (:func:`write_done`): per way of acting
     (``greedy``, ``sampled``) its ``episodes``, ``return_mean`` and ``success_rate``; empty
@@ -744,14 +747,15 @@ def after_training(
             )
             if video.cut:
                 _note(f"{video.path} stops at tick {video.ticks}; the episode went on")
-            add_video(
-                tb,
-                "rollout",
-                video.path,
-                trained.samples,
-                frames=video.frames,
-                progress=config.progress,
-            )
+            if config.video_gif:
+                add_video(
+                    tb,
+                    "rollout",
+                    video.path,
+                    trained.samples,
+                    frames=video.frames,
+                    progress=config.progress,
+                )
             video_path = video.path
     finally:
         tb.close()

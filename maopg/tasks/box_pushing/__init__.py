@@ -13,6 +13,6 @@ register_task(
     # The grid's reference policy itself: it reads option names and the big-box bit, which
     # this task shares with the grid (maopg/tasks/box_pushing/task.py).
     scripted="maopg.tasks.box_pushing_grid.scripted:scripted_policy",
-    state_lines=f"{__name__}.display:state_lines",
+    panel=f"{__name__}.display:panel",
     train_defaults={"batch_ticks": 1000, "total_samples": 500_000, "images": False},
 )

@@ -79,11 +79,17 @@ from maopg.tasks.box_pushing.config import Config
 from maopg.tasks.box_pushing.options import option_set
 from maopg.tasks.box_pushing.routes import Obstacles, plan
 from maopg.tasks.box_pushing.scene import BOXES, DELIVERED_RGBA, build_scene
-from maopg.tasks.box_pushing_grid.world import DIRECTIONS, LAYOUT, NORTH, ORIENTATIONS, agent_names
+from maopg.tasks.box_pushing_grid.world import (
+    BOX_NAMES,
+    DIRECTIONS,
+    LAYOUT,
+    NORTH,
+    ORIENTATIONS,
+    agent_names,
+)
 from maopg.tasks.layout import ObsLayout
 
 NORTH_YAW = yaw_of(NORTH)
-BOX_NAMES = ("small box 0", "small box 1", "big box")
 PASS_TOL = 0.1
 """m: a route's intermediate corner counts as passed this close (the robot rounds it)."""
 SETTLE = 0.25

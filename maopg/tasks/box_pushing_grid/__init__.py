@@ -11,7 +11,7 @@ register_task(
     f"{__name__}.task:BoxPushingGrid",
     config=f"{__name__}.config:Config",
     scripted=f"{__name__}.scripted:scripted_policy",
-    state_lines=f"{__name__}.display:state_lines",
+    panel=f"{__name__}.display:panel",
     # The literature's budget (the ACAC runs stop at 500K steps). A batch holds ten horizons,
     # some thirty episodes of a random team (the reference updates on sixteen). No camera.
     # Exploration by ε-mixed sampling over the joint option, on ACAC's published schedule: the

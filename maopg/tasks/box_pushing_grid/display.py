@@ -1,4 +1,5 @@
-"""How Box Pushing looks in a video: the panel's lines and a top-down drawing of the grid."""
+"""How Box Pushing looks in a video: the panel's named quantities and a top-down drawing of
+the grid."""
 
 from __future__ import annotations
 
@@ -9,7 +10,8 @@ from typing import Any
 import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
-from maopg.tasks.box_pushing_grid.world import DIRECTIONS, GridWorld
+from maopg.tasks.box_pushing_grid.world import BOX_NAMES, DIRECTIONS, GridWorld
+from maopg.tasks.panel import Field, Gauge, Heading, PanelItem
 
 SIDE = 480
 """Pixels a side of the drawing (the video's overview is 480 px high)."""
@@ -21,20 +23,33 @@ AGENT_COLOURS = ((40, 160, 70), (50, 90, 200), (140, 60, 190))
 INK = (20, 20, 20)
 
 
-def state_lines(state: Mapping[str, Any]) -> list[str]:
-    """Where the agents stand and face, the waypoint each last reached (what a joint push
-    checks), where the boxes are and what was delivered (from ``BoxPushingGrid.describe()``)."""
-    lines = [f"{state['size']}x{state['size']} grid, goal: top row"]
-    for i, ((x, y), facing, reached) in enumerate(
-        zip(state["positions"], state["facing"], state["reached"], strict=True)
+FACING = {"N": "north", "E": "east", "S": "south", "W": "west"}
+
+
+def box_pushing_items(state: Mapping[str, Any], goal: float) -> list[PanelItem]:
+    """Both Box Pushing tasks' panel (from their ``describe()``, positions in cells): each
+    box's way up to the goal as a bar (its centre's row over ``goal``, the row where it counts
+    as delivered) with the rows it has still to go, then where each robot stands and faces,
+    and the waypoint it last reached where the task says (what a joint push checks)."""
+    items: list[PanelItem] = [Heading("boxes: way to the goal row")]
+    for name, (_, y) in zip(BOX_NAMES, state["boxes"], strict=True):
+        if name in state["delivered"]:
+            items.append(Gauge(name, 1.0, "delivered"))
+        else:
+            items.append(Gauge(name, y / goal, f"{max(0.0, goal - y):.1f} rows to go"))
+    items.append(Heading("robots: cell, facing"))
+    reached = state.get("reached", [None] * len(state["positions"]))
+    for i, ((x, y), facing, spot) in enumerate(
+        zip(state["positions"], state["facing"], reached, strict=True)
     ):
-        lines.append(f"agent{i} ({x:g}, {y:g}) facing {facing}")
-        lines.append(f"  reached: {reached}")
-    (s0x, s0y), (s1x, s1y), (bx, by) = state["boxes"]
-    lines.append(f"small boxes ({s0x:g}, {s0y:g}) ({s1x:g}, {s1y:g})")
-    lines.append(f"big box ({bx:g}, {by:g})")
-    delivered = ", ".join(state["delivered"]) or "nothing yet"
-    return [*lines, f"delivered: {delivered}"]
+        at = f", at {spot}" if spot not in (None, "-") else ""
+        items.append(Field(f"agent{i}", f"({x:.1f}, {y:.1f}) {FACING[facing]}{at}"))
+    return items
+
+
+def panel(state: Mapping[str, Any]) -> list[PanelItem]:
+    """The grid's panel (:func:`box_pushing_items`; a box is delivered in the top row)."""
+    return box_pushing_items(state, goal=state["size"] - 0.5)
 
 
 def draw(world: GridWorld) -> np.ndarray:

@@ -41,6 +41,7 @@ from maopg.tasks.box_pushing_grid.config import Config
 from maopg.tasks.box_pushing_grid.display import draw
 from maopg.tasks.box_pushing_grid.options import option_set
 from maopg.tasks.box_pushing_grid.world import (
+    BOX_NAMES,
     LAYOUT,
     ORIENTATIONS,
     PRIMITIVE_STAY,
@@ -53,7 +54,6 @@ from maopg.tasks.layout import ObsLayout
 
 WAYPOINTS = ("small box 0", "small box 1", "big box left", "big box right")
 """What each waypoint serves, in index order."""
-BOXES = ("small box 0", "small box 1", "big box")
 
 
 class BoxPushingGrid(Task):
@@ -150,7 +150,7 @@ class BoxPushingGrid(Task):
             "facing": [ORIENTATIONS[a.ori] for a in world.agents],
             "reached": [WAYPOINTS[a.waypoint] if a.waypoint >= 0 else "-" for a in world.agents],
             "boxes": [(b.x, b.y) for b in world.boxes],
-            "delivered": [name for name, d in zip(BOXES, world.delivered(), strict=True) if d],
+            "delivered": [name for name, d in zip(BOX_NAMES, world.delivered(), strict=True) if d],
         }
 
     def video_frame(self) -> np.ndarray:

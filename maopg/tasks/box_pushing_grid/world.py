@@ -82,6 +82,8 @@ from maopg.tasks.layout import ObsLayout
 NORTH, EAST, SOUTH, WEST = range(4)
 ORIENTATIONS = "NESW"
 DIRECTIONS = ((0.0, 1.0), (1.0, 0.0), (0.0, -1.0), (-1.0, 0.0))
+BOX_NAMES = ("small box 0", "small box 1", "big box")
+"""The boxes in the order of ``GridWorld.boxes`` (and of Box Pushing's MuJoCo bodies)."""
 
 MACROS = (
     "GoToSmallBox(0)",

@@ -10,7 +10,7 @@ register_task(
     f"{__name__}.task:ToolDelivery",
     config=f"{__name__}.config:Config",
     scripted=f"{__name__}.scripted:scripted_policy",
-    state_lines=f"{__name__}.display:state_lines",
+    panel=f"{__name__}.display:panel",
     # The paper's batch size in low-level samples; the budget covers its curves.
     train_defaults={"batch_ticks": 200, "total_samples": 100_000, "images": False},
 )

@@ -10,7 +10,7 @@ register_task(
     f"{__name__}.task:WaterFilling",
     config=f"{__name__}.config:Config",
     scripted=f"{__name__}.scripted:scripted_policy",
-    state_lines=f"{__name__}.display:state_lines",
+    panel=f"{__name__}.display:panel",
     # The paper's batch size in low-level samples and its image observations.
     # Environments in worker processes, one each: faster than threads here, where the drone's
     # 50 Hz Python controller takes the GIL and option steps vary in length (measured by
