@@ -340,7 +340,8 @@ def test_a_full_disk_or_read_only_file_system_is_one_line(
     err = user_error(
         main, resume, rf"error: cannot write {re.escape(str(named))}: {strerror}{intact}$"
     )
-    assert len(err.strip().splitlines()) == 1
+    # One error line; the run's own notes (its budget's rounding) may come before it.
+    assert len([line for line in err.splitlines() if line and not line.startswith("note: ")]) == 1
     assert load_checkpoint(checkpoint)["iteration"] == kept
     assert not list(run_dir.glob(".checkpoint.pt.*.tmp"))
     if where == "row":  # the same for all: the run goes on from the checkpoint kept

@@ -17,12 +17,18 @@ from maopg.experiment.run.settings_reference import settings_markdown, settings_
 from maopg.tasks import task_entry, task_names
 
 
+def _builtin_tasks() -> list[str]:
+    """The tasks maopg registers itself (another test of this process may have imported a
+    plugin's, which the ``--help`` of a fresh process does not list)."""
+    return [t for t in task_names() if task_entry(t).config_class().__module__.startswith("maopg.")]
+
+
 def _declared() -> dict[str, set[str]]:
     """Each section's settings as the dataclasses declare them, named as on a command line."""
     fields = {"": {f.name for f in dataclasses.fields(TrainConfig)} - set(NOT_RUN_FIELDS)}
     for name, cls in {**RUN_SECTIONS, **section_classes()}.items():
         fields[f"{name}."] = {f"{name}.{f.name}" for f in dataclasses.fields(cls)}
-    for task in task_names():
+    for task in _builtin_tasks():
         cls = task_entry(task).config_class()
         fields[task] = {f"env.{f.name}" for f in dataclasses.fields(cls)} - {
             f"env.{key}" for key in OWN_ARGUMENTS
@@ -43,7 +49,7 @@ def test_every_field_of_every_settings_dataclass_is_in_the_reference():
         if section.title.startswith("env.")
     }
     assert by_task == {task: names for task, names in _declared().items() if task in by_task}
-    assert set(by_task) == set(task_names())
+    assert set(by_task) >= set(_builtin_tasks())
 
 
 def test_a_row_holds_kind_default_bounds_and_meaning():
@@ -64,7 +70,14 @@ def test_a_row_holds_kind_default_bounds_and_meaning():
     assert "mac-iac (maciaicc.critic=own)" in text and "async-rnn (ppo.recurrent=true)" in text
     assert "box_pushing_grid: ppo.explore_eps=1.0" in text
     # every built-in setting says what it does
-    undocumented = [s.name for sec in settings_sections() for s in sec.settings if not s.meaning]
+    plugins = set(task_names()) - set(_builtin_tasks())
+    undocumented = [
+        s.name
+        for sec in settings_sections()
+        if sec.title.rpartition(" ")[2] not in plugins
+        for s in sec.settings
+        if not s.meaning
+    ]
     assert undocumented == []
 
 

@@ -296,7 +296,7 @@ def cmd_timeline(args: argparse.Namespace) -> int:
     from maopg.experiment.evaluation.timeline import check_out, write_timeline
 
     check_out(args.out)
-    _, who, env, policy = _policy_and_env(args)
+    _, who, env, policy, _ = _policy_and_env(args)
     try:
         path, played = write_timeline(env, policy, args.out, seed=args.seed, policy_label=who)
     finally:
