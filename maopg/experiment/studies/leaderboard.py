@@ -251,25 +251,17 @@ def board_levels(board: Board, results_dir: Path, episodes: int) -> tuple[float,
 
 
 # ------------------------------------------------------------------------------- tables
-def _interval(values: Sequence[float], digits: int) -> str:
-    """``mean [low, high]``: the percentile bootstrap 95 % interval of the mean; the bare
-    value for one seed, ``—`` for none."""
+def _interval(values: Sequence[float], show: Callable[[float], str]) -> str:
+    """``mean [low, high]``, each written by ``show``: the percentile bootstrap 95 % interval
+    of the mean; the bare value for one seed, ``—`` for none."""
     kept = [v for v in values if not math.isnan(v)]
     if not kept:
         return "—"
-    mean = float(np.mean(kept))
+    mean = show(float(np.mean(kept)))
     if len(kept) == 1:
-        return f"{mean:.{digits}f}"
+        return mean
     low, high = bootstrap_interval(kept)
-    return f"{mean:.{digits}f} [{low:.{digits}f}, {high:.{digits}f}]"
-
-
-def _interval_large(values: Sequence[float]) -> str:
-    """:func:`_interval` of sample counts, in thousands."""
-    if len(values) < 2:
-        return _large(values[0]) if values else "—"
-    low, high = bootstrap_interval(values)
-    return f"{_large(float(np.mean(values)))} [{_large(low)}, {_large(high)}]"
+    return f"{mean} [{show(low)}, {show(high)}]"
 
 
 def _large(value: float) -> str:
@@ -288,7 +280,7 @@ def board_table(board: Board, rows: Sequence[Entry]) -> str:
         running = sum(not e.finished for e in mine)
         seeds = f"{len(mine)}" + (f" ({running} running)" if running else "")
         reached = [e.to_threshold for e in mine if not math.isnan(e.to_threshold)]
-        threshold = _interval_large(reached) + f" ({len(reached)} of {len(mine)})"
+        threshold = _interval(reached, _large) + f" ({len(reached)} of {len(mine)})"
         each = ", ".join(
             f"seed{e.seed} {_large(e.final_return)}{' ✓' if not math.isnan(e.to_threshold) else ''}"
             for e in mine
@@ -298,8 +290,8 @@ def board_table(board: Board, rows: Sequence[Entry]) -> str:
                 method,
                 TUNING.get(method, "—"),
                 seeds,
-                _interval([e.final_return for e in mine], 1),
-                _interval([e.score for e in mine], 2),
+                _interval([e.final_return for e in mine], "{:.1f}".format),
+                _interval([e.score for e in mine], "{:.2f}".format),
                 threshold,
                 each,
             ]
