@@ -18,10 +18,12 @@ trajectory.
   ``t_k`` to its next one (or the episode's final point), ``R_k = Σ γ^j r`` over its ticks and
   ``y_k = R_k + γ^{τ_k} V̄_i(h_{t_{k+1}})`` with ``τ_k`` its ticks (0 after a terminal state;
   a timeout bootstraps), from a target copy of the critics refreshed every ``target_every``
-  episodes. One critic step on the squared error, then ``A_k = y_k − V_i(h_{t_k})`` from the
-  stepped critic, then one actor step on ``−γ^{e_k} log μ_i(a_k) A_k`` averaged over the
-  agent's decisions (``e_k``: the index of its last tick; ``μ``: the ε-mixed policy, as
-  collected). No entropy bonus, advantage normalisation or gradient clipping.
+  episodes; with ``n_step`` = n, the rewards of n macro-actions before the bootstrap
+  (:func:`n_step_targets`; the Naive critic's over the team's steps). One critic step on the
+  squared error, then ``A_k = y_k − V_i(h_{t_k})`` from the stepped critic, then one actor
+  step on ``−γ^{e_k} log μ_i(a_k) A_k`` averaged over the agent's decisions (``e_k``: the
+  index of its last tick; ``μ``: the ε-mixed policy, as collected). No entropy bonus,
+  advantage normalisation or gradient clipping.
 - **Collection**: whole episodes in rounds (:func:`~maopg.learner.rounds.collect_round`), ε
   falling linearly over ``explore_decay`` episodes.
 
@@ -131,6 +133,31 @@ class MacroSteps:
     weight: np.ndarray
 
 
+def n_step_targets(
+    reward: np.ndarray,
+    discount: np.ndarray,
+    bootstrap: np.ndarray,
+    episode: np.ndarray,
+    n: int,
+) -> np.ndarray:
+    """``y_k = Σ_{m<n} (Π_{l<m} d_{k+l}) R_{k+m} + (Π_{l<n} d_{k+l}) V_{k+n}`` over consecutive
+    steps ``k`` of one sequence per episode (steps listed episode by episode, in order):
+    ``reward`` ``R``, ``discount`` ``d`` (γ to the step's ticks) and ``bootstrap`` ``V`` (the
+    target value where the step ends, 0 after a terminal state). The sum stops early at the
+    episode's last step and bootstraps there; ``n = 1`` is the one-step target."""
+    targets = np.empty(len(reward))
+    for k in range(len(reward)):
+        total, scale, j = 0.0, 1.0, k
+        for m in range(n):
+            total += scale * reward[j]
+            scale *= discount[j]
+            if m == n - 1 or j + 1 == len(reward) or episode[j + 1] != episode[k]:
+                break
+            j += 1
+        targets[k] = total + scale * bootstrap[j]
+    return targets
+
+
 def macro_steps(batch: Episodes, agent: int, gamma: float) -> MacroSteps:
     """Agent ``agent``'s macro-actions in ``batch`` (:class:`MacroSteps`)."""
     ticks = batch.obs.ticks
@@ -174,19 +201,32 @@ class MacIAICCLearner(RoundsLearner):
         """Each agent's ``y_k`` (or, ``joint``, the team's ``y`` per point) from the target."""
         with torch.no_grad():
             values = self.target.values(batch, self.device).cpu().numpy()
-        gamma = self.setup.gamma
+        gamma, n = self.setup.gamma, self.config.n_step
         if self.config.critic == "joint":
             steps = batch.steps.numpy()
             following = np.concatenate([values[1:, :, 0], np.zeros_like(values[:1, :, 0])])
             last = np.zeros_like(steps)
             last[batch.length - 1, np.arange(len(batch.length))] = True
             ended = last & batch.terminated[None, :]
-            team = batch.reward + gamma**batch.duration * np.where(ended, 0.0, following)
+            points = np.nonzero(steps.T)  # (episode, point), episode by episode
+            team = np.zeros(steps.shape)
+            team[points[1], points[0]] = n_step_targets(
+                batch.reward.T[points],
+                (gamma**batch.duration).T[points],
+                np.where(ended, 0.0, following).T[points],
+                points[0],
+                n,
+            )
             return [torch.as_tensor(team, dtype=torch.float32)]
         return [
             torch.as_tensor(
-                s.reward
-                + s.discount * np.where(s.terminal, 0.0, values[s.next_rows, s.episodes, i]),
+                n_step_targets(
+                    s.reward,
+                    s.discount,
+                    np.where(s.terminal, 0.0, values[s.next_rows, s.episodes, i]),
+                    s.episodes,
+                    n,
+                ),
                 dtype=torch.float32,
             )
             for i, s in enumerate(agent_steps)

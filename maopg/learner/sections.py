@@ -296,6 +296,13 @@ class MacIAICCConfig(Settings):
     """Finished episodes a round waits for and trains on (the last ones to finish)."""
     target_every: int = setting(128, ge=1)
     """Episodes of the counter between copies of the critics into their targets."""
+    n_step: int = setting(1, ge=1)
+    """Macro-actions whose rewards a critic's target sums before it bootstraps (MacroMARL's
+    ``n_step_TD``: 1 in its Mac-IAICC Box Pushing scripts, 5 in its Warehouse tool-delivery
+    ones). With
+    per-tick costs, a one-step target from a young critic (values near 0, above the true
+    negative ones) makes the shortest options look best; more steps of real reward temper
+    that."""
     explore_eps: float = setting(1.0, ge=0.0, le=1.0)
     """ε of the mixture at the first round (0: no exploration)."""
     explore_eps_end: float = setting(0.01, ge=0.0, le=1.0)

@@ -2,13 +2,21 @@
 targets over interleaved decisions, which points each critic reads, the naive advantage, and a
 round and update of each on the real Box Pushing grid task."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 import torch
 
 from maopg.env.vector import EnvConfig, SeededVectorEnv
 from maopg.learner import LearnerSetup
-from maopg.learner.mac_iaicc import HistoryCritics, MacIAICCConfig, MacIAICCLearner, macro_steps
+from maopg.learner.mac_iaicc import (
+    HistoryCritics,
+    MacIAICCConfig,
+    MacIAICCLearner,
+    macro_steps,
+    n_step_targets,
+)
 from maopg.learner.rounds import Episodes, collect_round
 from maopg.policy import ObsBatch
 from maopg.policy.agent_centric import AgentCentricPolicy
@@ -49,6 +57,30 @@ def test_each_agents_macro_actions_span_its_own_decisions():
     assert second.reward == pytest.approx([1.0 + g**2 * 2.0, 4.0])
     assert second.discount == pytest.approx([g**5, g**1])
     assert list(second.team_rows) == [1, 2]
+
+
+def test_n_step_targets_sum_n_macro_actions_then_bootstrap_within_each_episode():
+    """Three steps of episode 0 (the last one terminal: bootstrap 0) and two of episode 1 (a
+    timeout: its last step bootstraps), worked by hand for n = 1, 2 and 5."""
+    reward = np.array([1.0, 2.0, 4.0, 8.0, 16.0])
+    discount = np.array([0.5, 0.25, 0.5, 0.5, 0.5])
+    bootstrap = np.array([10.0, 20.0, 0.0, 40.0, 80.0])
+    episode = np.array([0, 0, 0, 1, 1])
+    one = n_step_targets(reward, discount, bootstrap, episode, 1)
+    assert one == pytest.approx(reward + discount * bootstrap)
+    two = n_step_targets(reward, discount, bootstrap, episode, 2)
+    assert two == pytest.approx(
+        [
+            1.0 + 0.5 * 2.0 + 0.5 * 0.25 * 20.0,
+            2.0 + 0.25 * 4.0 + 0.25 * 0.5 * 0.0,
+            4.0 + 0.5 * 0.0,  # the episode's last step: it stops and bootstraps there
+            8.0 + 0.5 * 16.0 + 0.25 * 80.0,
+            16.0 + 0.5 * 80.0,
+        ]
+    )
+    five = n_step_targets(reward, discount, bootstrap, episode, 5)
+    assert five[0] == pytest.approx(1.0 + 0.5 * 2.0 + 0.125 * 4.0)  # Monte Carlo to the end
+    assert five[3] == pytest.approx(two[3])
 
 
 @pytest.fixture
@@ -141,3 +173,37 @@ def test_from_cameras_the_critics_read_the_images_they_should(critic):
         assert not torch.equal(learner.critic.inputs[0].cnn.convs[0].weight, before)
     finally:
         envs.close()
+
+
+@pytest.mark.parametrize("critic", ["history", "own", "joint"])
+def test_a_target_over_more_macro_actions_than_the_episode_has_is_its_discounted_return(
+    envs, critic
+):
+    """With ``n_step`` beyond every episode's length, each episode's first target is its
+    discounted return (plus the discounted bootstrap where a timeout cut it) on every critic,
+    the Naive one's team steps included; with 1 it is the one-step target."""
+    learner = _learner(envs, critic)
+    batch, _, _ = collect_round(
+        envs, learner.policy, 1.0, 2, torch.Generator().manual_seed(0), torch.device("cpu")
+    )
+    agents = 1 if critic == "joint" else 2
+    steps = [macro_steps(batch, i, 0.98) for i in range(2)]
+    with torch.no_grad():
+        target_values = learner.target.values(batch, torch.device("cpu")).numpy()
+    ticks = batch.obs.ticks.view(batch.choosing.shape[:2]).numpy()
+    learner.config = dataclasses.replace(learner.config, n_step=10_000)
+    long = learner._targets(batch, steps)
+    learner.config = dataclasses.replace(learner.config, n_step=1)
+    one = learner._targets(batch, steps)
+    for b, length in enumerate(batch.length):
+        discounted = sum(0.98 ** ticks[t, b] * batch.reward[t, b] for t in range(length))
+        for i in range(agents):
+            tail = 0.0 if batch.terminated[b] else 0.98 ** ticks[length, b]
+            expected = discounted + tail * target_values[length, b, i]
+            assert float(
+                long[i][0, b] if critic == "joint" else long[i][steps[i].episodes == b][0]
+            ) == pytest.approx(expected, rel=1e-5)
+    s = steps[0]
+    if critic != "joint":
+        boot = np.where(s.terminal, 0.0, target_values[s.next_rows, s.episodes, 0])
+        assert one[0].numpy() == pytest.approx(s.reward + s.discount * boot, rel=1e-5)
