@@ -212,7 +212,8 @@ class SceneTask(Task):
     scene: Scene
     _renderer: CameraRenderer | None = None
     _agent_robots: tuple[RobotAdapter, ...] = ()
-    _mounts: dict[int, Mount]
+    _mounts: dict[int, Mount] | None = None
+    """Each re-mounted camera's mount as compiled."""
 
     prop_classes: ClassVar[Mapping[str, str]] = {}
     """The segmentation classes of the task's props: each prop kind (a prop body's name
@@ -238,25 +239,25 @@ class SceneTask(Task):
         if not isinstance(config, SceneTaskConfig):
             return
         model = self.scene.model
-        if not hasattr(self, "_mounts"):
+        if self._mounts is None:
             self._mounts = {}
+        moved = False
         for robot in self._agent_robots:
-            role = role_of(type(robot))
-            fovy = config.camera_value("camera_fovy", role)
-            offset = config.camera_value("camera_offset", role)
-            rotation = config.camera_value("camera_rotation", role)
-            if fovy is None and not any(offset or ()) and not any(rotation or ()):
-                continue  # as compiled: not a bit of the model changes
+            mount = config.camera_mount(role_of(type(robot)))
+            if mount.as_compiled:
+                continue  # not a bit of the model changes
+            moved = True
             home = self._mounts.setdefault(robot.camera_id, Mount.of(model, robot.camera_id))
             mount_camera(
                 model,
                 robot.camera_id,
                 home,
-                fovy=fovy,  # type: ignore[arg-type]
-                offset=offset or (0.0, 0.0, 0.0),  # type: ignore[arg-type]
-                rotation=rotation or (0.0, 0.0, 0.0),  # type: ignore[arg-type]
+                fovy=mount.fovy,
+                offset=mount.offset,
+                rotation=mount.rotation,
             )
-        mujoco.mj_camlight(model, self.scene.data)
+        if moved:  # the cameras' world poses now, not at the next step
+            mujoco.mj_camlight(model, self.scene.data)
 
     def hold(self, agent: int) -> None:
         self.agent_robots[agent].hold()

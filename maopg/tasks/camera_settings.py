@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any
 
 Value = float | tuple[float, ...]
@@ -68,3 +69,18 @@ def value_for(values: dict[str | None, Value], role: str) -> Value | None:
     """The value a robot of ``role`` gets from :func:`role_values`' result (``None``: none
     set, the robot keeps its own)."""
     return values.get(role, values.get(EVERY))
+
+
+@dataclass(frozen=True)
+class CameraMount:
+    """What a task's camera settings give one robot's camera (:mod:`maopg.sim.mounts`)."""
+
+    fovy: float | None = None
+    """Degrees; ``None``: the robot's own."""
+    offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    rotation: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    @property
+    def as_compiled(self) -> bool:
+        """Whether the camera stays as the robot's file mounts it."""
+        return self.fovy is None and not any(self.offset) and not any(self.rotation)

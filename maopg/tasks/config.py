@@ -12,7 +12,7 @@ from typing import ClassVar
 
 from maopg.settings import Settings, field_bounds, setting
 from maopg.sim.channels import parse_channels
-from maopg.tasks.camera_settings import Value, role_values, value_for
+from maopg.tasks.camera_settings import CameraMount, role_values, value_for
 
 MAX_IMAGE_SIZE = 4096
 """The largest camera image (px a side) a config accepts: far beyond what an observation needs,
@@ -85,12 +85,20 @@ class SceneTaskConfig(TaskConfig):
 
         return tuple(ROLES)
 
-    def camera_value(self, name: str, role: str) -> Value | None:
-        """What camera setting ``name`` gives a robot of ``role`` (``None``: not set)."""
-        values = role_values(
-            self.PREFIX + name, getattr(self, name), self.CAMERA_SIZES[name], self.camera_roles()
+    def camera_mount(self, role: str) -> CameraMount:
+        """What the camera settings give a robot of ``role``."""
+        values = {
+            name: value_for(
+                role_values(self.PREFIX + name, getattr(self, name), size, self.camera_roles()),
+                role,
+            )
+            for name, size in self.CAMERA_SIZES.items()
+        }
+        return CameraMount(
+            values["camera_fovy"],  # type: ignore[arg-type]  (one number)
+            values["camera_offset"] or (0.0, 0.0, 0.0),  # type: ignore[arg-type]  (three)
+            values["camera_rotation"] or (0.0, 0.0, 0.0),  # type: ignore[arg-type]
         )
-        return value_for(values, role)
 
     def validate(self) -> None:
         super().validate()
