@@ -33,7 +33,7 @@ COMBINATIONS = [c for n in range(1, 4) for c in itertools.combinations(CHANNELS,
 def measure(task: str, steps: int, size: int) -> dict[tuple[str, ...], float]:
     """Median milliseconds per frame of each combination."""
     env = make_env(task, seed=0)
-    scene, classes = env.task.scene, env.task.classes
+    scene, classes = env.task.scene, env.task.segmentation
     cameras = [robot.camera_id for robot in env.task.agent_robots]
     renderers = {
         names: CameraRenderer(

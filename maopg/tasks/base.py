@@ -235,7 +235,12 @@ class SceneTask(Task):
     def _mount_cameras(self) -> None:
         """Apply the config's camera settings to the robots' cameras (always from the mount
         the model was compiled with, so doing it again changes nothing)."""
-        config = self.config
+        config = getattr(self, "config", None)
+        if config is None:
+            raise AttributeError(
+                f"{type(self).__name__}: set self.config before self.agent_robots (the robots' "
+                "cameras are mounted as its camera settings say)"
+            )
         if not isinstance(config, SceneTaskConfig):
             return
         model = self.scene.model
@@ -263,7 +268,7 @@ class SceneTask(Task):
         self.agent_robots[agent].hold()
 
     @cached_property
-    def classes(self) -> ClassTable:
+    def segmentation(self) -> ClassTable:
         """The segmentation class of every geom of the scene (:mod:`maopg.sim.segmentation`),
         made once per build."""
         roots = [robot.root_body_id for robot in self.scene.robots.values()]
@@ -279,14 +284,14 @@ class SceneTask(Task):
         return ImageChannels(
             names,
             depth_range(self.scene.model) if "depth" in names else None,
-            self.classes.classes if "seg" in names else (),
+            self.segmentation.classes if "seg" in names else (),
         )
 
     def camera_renderer(self, height: int, width: int) -> CameraRenderer:
         """A renderer of the robots' cameras giving :meth:`image_channels` (the observations'
         and the video's tiles)."""
         channels = self.image_channels()
-        classes = self.classes if "seg" in channels.names else None
+        classes = self.segmentation if "seg" in channels.names else None
         return CameraRenderer(self.scene.model, height, width, channels=channels, classes=classes)
 
     def render(self, agents: Sequence[int], out: np.ndarray) -> None:

@@ -100,16 +100,19 @@ def test_a_tasks_class_map_is_its_documented_list_on_every_build(task):
     """Two builds give the same class of every geom; a bigger team the same class list."""
     first, second = (task_class(task)(make_config(task, {})) for _ in range(2))
     try:
-        assert first.classes.classes == (*FIXED_CLASSES, *CLASSES[task])
-        np.testing.assert_array_equal(first.classes.geom_class, second.classes.geom_class)
-        np.testing.assert_array_equal(first.classes.site_class, second.classes.site_class)
-        assert set(first.classes.geom_class) >= {1, 2, 3}, "floor, walls and robots are seen"
+        assert first.segmentation.classes == (*FIXED_CLASSES, *CLASSES[task])
+        np.testing.assert_array_equal(first.segmentation.geom_class, second.segmentation.geom_class)
+        np.testing.assert_array_equal(first.segmentation.site_class, second.segmentation.site_class)
+        assert set(first.segmentation.geom_class) >= {1, 2, 3}, "floor, walls and robots are seen"
     finally:
         first.close()
         second.close()
     big = {"water_filling": {"vehicles": 3, "drones": 2, "jars": 5}}.get(task, {})
     if big:
-        assert task_class(task)(make_config(task, big)).classes.classes == first.classes.classes
+        assert (
+            task_class(task)(make_config(task, big)).segmentation.classes
+            == first.segmentation.classes
+        )
 
 
 def test_known_pixels_of_the_box_pushing_robots_cameras():
@@ -186,7 +189,7 @@ def test_every_role_renders_every_channel_combination_alike(role):
         camera = env.task.agent_robots[agent].camera_id
         for combination in COMBINATIONS:
             chosen = _channels(combination, model, channels.classes)
-            classes = env.task.classes if "seg" in chosen.names else None
+            classes = env.task.segmentation if "seg" in chosen.names else None
             with CameraRenderer(model, 36, 36, channels=chosen, classes=classes) as renderer:
                 image = renderer.render(data, [camera])[0]
             assert image.shape == (36, 36, chosen.planes) and image.dtype == chosen.dtype
