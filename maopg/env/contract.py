@@ -50,12 +50,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from maopg.options.base import Strategy, option_index
+from maopg.sim.channels import RGB, ImageChannels
 
 if TYPE_CHECKING:  # at run time the contract stays free of the task layer's imports
     from maopg.tasks.layout import ObsLayout
 
 
-__all__ = ["AgentSpec", "DecisionPoint", "EnvSpec", "Strategy"]
+__all__ = ["AgentSpec", "DecisionPoint", "EnvSpec", "ImageChannels", "Strategy"]
 
 
 @dataclass(frozen=True)
@@ -95,10 +96,21 @@ class EnvSpec:
     strategy: Strategy
     agents: tuple[AgentSpec, ...]
     image_shape: tuple[int, int, int] | None
-    """``(H, W, 3)`` of every agent's camera image, or ``None`` when images are off."""
+    """``(H, W, planes)`` of every agent's camera image (``planes``: 3 for colour alone, see
+    :attr:`image_channels`), or ``None`` when images are off."""
     tick_seconds: float
     max_ticks: int
     gamma: float
+    image_channels: ImageChannels = RGB
+    """What the planes of an image hold, their value ranges and dtype
+    (:class:`~maopg.sim.channels.ImageChannels`): an encoder normalises each channel by it."""
+
+    def __post_init__(self) -> None:
+        if self.image_shape is not None and self.image_shape[2] != self.image_channels.planes:
+            raise ValueError(
+                f"image_shape {self.image_shape} does not hold the {self.image_channels.planes} "
+                f"planes of channels {'+'.join(self.image_channels.names)}"
+            )
 
     @property
     def num_agents(self) -> int:
@@ -124,7 +136,9 @@ class DecisionPoint:
     vectors: tuple[np.ndarray, ...]
     """Per-agent float32 observation vectors (each refreshed when that agent's option ends)."""
     images: np.ndarray | None
-    """``uint8 [N, H, W, 3]`` camera images rendered at this decision point, or ``None``."""
+    """``[N, H, W, planes]`` camera images rendered at this decision point (uint8 ``[N, H,
+    W, 3]`` for colour alone; dtype and planes: :attr:`EnvSpec.image_channels`), or
+    ``None``."""
     choosing: np.ndarray
     """``bool [N]``: the mask ``U_t`` of agents that must choose now."""
     running: np.ndarray

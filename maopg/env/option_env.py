@@ -21,6 +21,7 @@ import numpy as np
 
 from maopg.env.contract import AgentSpec, DecisionPoint, EnvSpec, Strategy
 from maopg.options.base import Execution
+from maopg.sim.channels import RGB
 from maopg.sim.scene import PhysicsInstability
 from maopg.tasks.base import Task
 
@@ -47,6 +48,8 @@ class OptionEnv:
         n = len(task.agent_names)
         self._options = [tuple(task.options(i)) for i in range(n)]
         size = task.config.image_size
+        channels = task.image_channels() if task.config.images else RGB
+        shape = (size, size, channels.planes)
         self.spec = EnvSpec(
             task=task.name,
             strategy=self.strategy,
@@ -60,17 +63,18 @@ class OptionEnv:
                 )
                 for i, name in enumerate(task.agent_names)
             ),
-            image_shape=(size, size, 3) if task.config.images else None,
+            image_shape=shape if task.config.images else None,
             tick_seconds=task.tick_seconds,
             max_ticks=task.config.max_ticks,
             gamma=gamma,
+            image_channels=channels,
         )
         self._executions: list[Execution | None] = [None] * n
         self._idle = np.zeros(n, dtype=bool)
         self._running = np.full(n, -1, dtype=np.int64)
         self._choosing = np.ones(n, dtype=bool)
         self._vectors = [np.zeros(a.vector_size, dtype=np.float32) for a in self.spec.agents]
-        self._images = np.zeros((n, size, size, 3), np.uint8) if task.config.images else None
+        self._images = np.zeros((n, *shape), channels.dtype) if task.config.images else None
         self._episode_return = 0.0
         self._physics_warning: str | None = None
         self._needs_reset = True

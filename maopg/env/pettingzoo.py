@@ -32,7 +32,7 @@ import numpy as np
 from pettingzoo import ParallelEnv
 
 from maopg.env import make_env
-from maopg.env.contract import DecisionPoint
+from maopg.env.contract import DecisionPoint, ImageChannels
 from maopg.env.option_env import OptionEnv
 from maopg.env.panel import panel_items
 from maopg.env.timeline import TimelineRecorder
@@ -44,9 +44,20 @@ INFO_KEYS = ("choosing", "running", "duration", "ticks", "discounted_reward")
 TorchRL's ``PettingZooWrapper`` can give them a spec)."""
 
 
+def image_space(shape: tuple[int, int, int], channels: ImageChannels) -> gym.spaces.Box:
+    """An agent's camera image as a gym space: each plane bounded as its channel is (colour
+    0-255, depth ``near``-``far`` metres, class ids 0 to the last class), in the channels'
+    dtype (uint8, float32 with depth)."""
+    low, high = (np.broadcast_to(np.asarray(b, channels.dtype), shape) for b in channels.bounds())
+    return gym.spaces.Box(low, high, shape, np.dtype(channels.dtype))
+
+
 class OptionParallelEnv(ParallelEnv):
     """``ParallelEnv`` adapter; observations are dicts with ``observation``, ``action_mask``
     and, when the task renders cameras, ``image``.
+
+    ``image`` is ``[H, W, planes]`` of the task's camera channels (colour alone: uint8
+    ``[H, W, 3]``; :func:`image_space`).
 
     ``render_mode="rgb_array"`` makes :meth:`render` return the frame a rollout video shows at
     this decision point (:class:`~maopg.env.video.FrameComposer`: the overview camera, the state
@@ -86,7 +97,7 @@ class OptionParallelEnv(ParallelEnv):
                 "action_mask": gym.spaces.MultiBinary(agent.num_options),
             }
             if env.spec.image_shape is not None:
-                spaces["image"] = gym.spaces.Box(0, 255, env.spec.image_shape, np.uint8)
+                spaces["image"] = image_space(env.spec.image_shape, env.spec.image_channels)
             self._observation_spaces[agent.name] = gym.spaces.Dict(spaces)
             self._action_spaces[agent.name] = gym.spaces.Discrete(agent.num_options)
         state_size = sum(agent.vector_size for agent in env.spec.agents)

@@ -47,7 +47,10 @@ team's tiles are laid out in rows no wider than the overview and the panel (:fun
 two rows, and more rows only past 26 robots; their captions take two lines (agent, option), cut
 to the tile's width. The tiles show each camera at the observation resolution
 (``task.config.image_size``) upscaled with nearest-neighbour, i.e. the pixels an image-based
-policy sees; a caption names the option its robot runs and for how many ticks it has, and
+policy sees. Where the task's cameras give depth or segmentation too (``env.camera_channels``),
+each robot's cell holds a tile per channel side by side (colour, depth in grey, classes in a
+fixed palette: :mod:`maopg.env.camera_tiles`), and the tiles shrink to fit as a bigger team's
+do; a caption names the option its robot runs and for how many ticks it has, and
 turns yellow during the tick an agent starts a new option, which the legend says.
 
 **Panel and timeline.** The title (:func:`video_title`) names the task, the strategy, who acts
@@ -78,13 +81,15 @@ from PIL import Image, ImageDraw, ImageFont
 
 import maopg  # noqa: F401  (sets MUJOCO_GL=egl before mujoco is imported)
 from maopg.env import DecisionPoint, OptionEnv
+from maopg.env.camera_tiles import channel_tiles
 from maopg.env.labels import place_labels
 from maopg.env.panel import draw_items, fit, panel_items
 from maopg.env.rollout import ReferencePolicy, TickLimit, goes_on_past
 from maopg.env.timeline import Segment, TimelineRecorder, draw_timeline, option_colours
 from maopg.progress import shows_bar
+from maopg.sim.channels import RGB
 from maopg.sim.framing import overview_view
-from maopg.sim.render import CameraRenderer, VideoRenderer, View
+from maopg.sim.render import VideoRenderer, View
 from maopg.tasks import SceneTask, Task
 from maopg.tasks.panel import PanelItem
 
@@ -103,6 +108,8 @@ GRID_TILES = (TILE, 192, 128, 96, 64)
 """Tile sides tried in turn for a team whose tiles do not fit one row."""
 GRID_ROWS = 2
 """Rows a team's tiles may take before the tiles shrink."""
+VIEW_GAP = 4
+"""Pixels between the tiles of one robot's channels."""
 GRID_CAPTION = 44
 """Height of a two-line caption (agent, then option) over a tile of the grid."""
 TIMELINE_PITCH = (18, 12)
@@ -167,14 +174,20 @@ class TileGrid:
     """Where the robots' captions and camera tiles go (:func:`tile_grid`)."""
 
     side: int
-    """Width of a robot's cell, and of its camera tile."""
+    """Width of a robot's cell: its camera tiles side by side."""
     tile: int
-    """Height of a camera tile (0: a task without cameras has captions only)."""
+    """Side of a camera tile (0: a task without cameras has captions only)."""
     caption: int
     cols: int
     rows: int
     two_lines: bool
     """Captions as two lines (agent, option) instead of ``agent: option``."""
+    views: int = 1
+    """Tiles per robot: one per camera channel."""
+
+    def tile_left(self, view: int) -> int:
+        """Where tile ``view`` of a cell starts, from the cell's left edge."""
+        return view * (self.tile + VIEW_GAP)
 
     @property
     def row_width(self) -> int:
@@ -194,19 +207,25 @@ class TileGrid:
         return x0 + col * (self.side + GAP), y
 
 
-def tile_grid(agents: int, cameras: bool) -> TileGrid:
-    """The layout of ``agents`` robots' tiles (see the module docstring): one row while it fits
-    :data:`ROW_WIDTH` (the layout of up to three robots), else the largest of
-    :data:`GRID_TILES` whose columns fit the team in :data:`GRID_ROWS` rows (the smallest, in
-    as many rows as it takes, past that)."""
-    if agents * TILE + (agents - 1) * GAP <= ROW_WIDTH:
-        return TileGrid(TILE, TILE if cameras else 0, CAPTION, agents, 1, False)
-    for side in GRID_TILES:
-        cols = (ROW_WIDTH + GAP) // (side + GAP)
+def tile_grid(agents: int, cameras: bool, views: int = 1) -> TileGrid:
+    """The layout of ``agents`` robots' cells of ``views`` tiles each (see the module
+    docstring): one row of :data:`TILE` tiles while it fits :data:`ROW_WIDTH` (the layout of
+    up to three robots with one tile each), else the largest of :data:`GRID_TILES` whose
+    columns fit the team in :data:`GRID_ROWS` rows (the smallest, in as many rows as it takes,
+    past that)."""
+    views = views if cameras else 1
+
+    def cell(tile: int) -> int:
+        return views * tile + (views - 1) * VIEW_GAP
+
+    if agents * cell(TILE) + (agents - 1) * GAP <= ROW_WIDTH:
+        return TileGrid(cell(TILE), TILE if cameras else 0, CAPTION, agents, 1, False, views)
+    for tile in GRID_TILES:
+        cols = max(1, (ROW_WIDTH + GAP) // (cell(tile) + GAP))
         rows = -(-agents // cols)
         if rows <= GRID_ROWS:
             break
-    return TileGrid(side, side if cameras else 0, GRID_CAPTION, cols, rows, True)
+    return TileGrid(cell(tile), tile if cameras else 0, GRID_CAPTION, cols, rows, True, views)
 
 
 def timeline_height(agents: int) -> int:
@@ -252,7 +271,9 @@ class FrameComposer:
         """The ticks the timeline's axis spans."""
         n = len(self.agent_names)
         oh, ow = OVERVIEW_SIZE
-        self.grid = grid = tile_grid(n, self.scene)
+        self.channels = task.image_channels() if isinstance(task, SceneTask) else RGB
+        """What the robots' tiles show, a tile per channel (the task's camera channels)."""
+        self.grid = grid = tile_grid(n, self.scene, len(self.channels.names))
         self.width = _round_up(max(ROW_WIDTH, grid.row_width), BLOCK)
         self.timeline_top = oh + GAP + grid.height + GAP
         self.height = _round_up(self.timeline_top + timeline_height(n), BLOCK)
@@ -265,10 +286,10 @@ class FrameComposer:
         if isinstance(task, SceneTask):
             px = camera_px or task.config.image_size
             self._overview = VideoRenderer(task.scene.model, oh, ow)
-            self._cameras = CameraRenderer(task.scene.model, px, px)
+            self._cameras = task.camera_renderer(px, px)
             self._camera_ids = [robot.camera_id for robot in task.agent_robots]
-            self._camera_buf = np.empty((n, px, px, 3), np.uint8)
-            self._upscale = np.arange(grid.side) * px // grid.side
+            self._camera_buf = np.empty((n, px, px, self.channels.planes), self.channels.dtype)
+            self._upscale = np.arange(grid.tile) * px // grid.tile
             self._data = task.scene.data
         self._sprites: dict[str, np.ndarray] = {}
 
@@ -356,7 +377,9 @@ class FrameComposer:
         for i in range(len(self.agent_names)):
             x, y = grid.cell(i, self.width)
             top = y + grid.caption
-            self._canvas[top : top + grid.side, x : x + grid.side] = self._camera_buf[i][up][:, up]
+            for view, tile in enumerate(channel_tiles(self._camera_buf[i], self.channels)):
+                left = x + grid.tile_left(view)
+                self._canvas[top : top + grid.tile, left : left + grid.tile] = tile[up][:, up]
 
     def _sprite(self, text: str) -> np.ndarray:
         """A label's box with its text, drawn once per text."""

@@ -141,7 +141,8 @@ class Rollout:
     """The weight of the exploration mixed into the policy that collected the rollout."""
     vectors: list[Tensor] = field(default_factory=list)
     bank: list[Tensor] = field(default_factory=list)
-    """Every distinct camera image of the rollout, ``uint8 [H, W, 3]`` each, in order seen."""
+    """Every distinct camera image of the rollout, ``[H, W, planes]`` each (the environment's
+    dtype: uint8 for colour alone), in order seen."""
     image_index: list[Tensor] = field(default_factory=list)
     """Per row ``int64 [E, N]``: the bank entry each agent's camera showed."""
     choosing: list[Tensor] = field(default_factory=list)

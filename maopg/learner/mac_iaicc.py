@@ -63,9 +63,7 @@ class JointInput(nn.Module):
 
     def __init__(self, spec: EnvSpec, width: int, cnn_features: int = 256) -> None:
         super().__init__()
-        self.cnn = (
-            NatureCNN(spec.image_shape, cnn_features) if spec.image_shape is not None else None
-        )
+        self.cnn = NatureCNN.of_spec(spec, cnn_features) if spec.image_shape is not None else None
         in_dim = vector_slices(spec)[-1].stop
         in_dim += spec.num_agents * cnn_features if self.cnn is not None else 0
         self.mlp = leaky_mlp(in_dim, width)

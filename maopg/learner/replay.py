@@ -29,7 +29,7 @@ def _obs_fields(spec: EnvSpec) -> dict[str, tuple[tuple[int, ...], Any]]:
         "available": ((sum(spec.option_counts),), np.bool_),
     }
     if spec.image_shape is not None:
-        fields["images"] = ((n, *spec.image_shape), np.uint8)
+        fields["images"] = ((n, *spec.image_shape), np.dtype(spec.image_channels.dtype))
     return fields
 
 
@@ -42,7 +42,7 @@ def point_arrays(point: DecisionPoint) -> dict[str, np.ndarray]:
         "available": np.concatenate(point.available).astype(np.bool_),
     }
     if point.images is not None:
-        arrays["images"] = np.array(point.images, dtype=np.uint8)
+        arrays["images"] = np.array(point.images)  # the env's dtype (uint8, float32 with depth)
     return arrays
 
 

@@ -78,9 +78,7 @@ class AgentInput(nn.Module):
         self.agent = agent
         self.embed_time = embed_time
         self.columns = vector_slices(spec)[agent]
-        self.cnn = (
-            NatureCNN(spec.image_shape, cnn_features) if spec.image_shape is not None else None
-        )
+        self.cnn = NatureCNN.of_spec(spec, cnn_features) if spec.image_shape is not None else None
         in_dim = self.columns.stop - self.columns.start + (2 if embed_time else 0)
         in_dim += cnn_features if self.cnn is not None else 0
         self.mlp = leaky_mlp(in_dim, width)

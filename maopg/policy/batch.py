@@ -6,8 +6,9 @@ one every network in :mod:`maopg.policy` consumes:
 
 - observation vectors of all agents concatenated in ``EnvSpec.agents`` order, ``float32 [B, ΣD_i]``
   (encoders slice an agent's segment out with :func:`vector_slices`);
-- camera images stacked per agent, ``uint8 [B, N, H, W, 3]`` (kept as bytes: 4x less memory in a
-  rollout buffer; encoders divide by 255);
+- camera images stacked per agent, ``[B, N, H, W, planes]`` as the environment gives them
+  (colour alone: ``uint8 [B, N, H, W, 3]``, kept as bytes, 4x less memory in a rollout buffer;
+  ``float32`` with depth: :class:`~maopg.sim.channels.ImageChannels`); encoders normalise them;
 - the condition of the conditional policy: ``choosing`` ``bool [B, N]``, ``running``
   ``int64 [B, N]`` and the availability masks concatenated, ``bool [B, ΣK_i]``.
 """
@@ -28,9 +29,10 @@ from maopg.env.contract import DecisionPoint, EnvSpec
 class ObsBatch:
     """Joint observations of ``B`` decision points.
 
-    Images come in one of two forms. *Dense* (``image_index`` is ``None``): ``images`` is
-    ``uint8 [B, N, H, W, 3]``, every agent's camera at every point — what acting builds from
-    decision points. *Banked*: ``images`` is a bank ``uint8 [M, H, W, 3]`` of distinct images
+    Images (``[.., H, W, planes]`` in the environment's dtype, see the module docstring) come
+    in one of two forms. *Dense* (``image_index`` is ``None``): ``images`` is ``[B, N, H, W,
+    planes]``, every agent's camera at every point — what acting builds from decision points.
+    *Banked*: ``images`` is a bank ``[M, H, W, planes]`` of distinct images
     and ``image_index`` ``int64 [B, N]`` says which one agent ``n`` saw at point ``b``; a
     continuing agent's camera does not change between its decisions, so a rollout stores (and
     an update encodes) each image once (:meth:`maopg.learner.buffer.Rollout.add`).
@@ -39,7 +41,8 @@ class ObsBatch:
     vectors: Tensor
     """``float32 [B, ΣD_i]``: the agents' observation vectors concatenated in spec order."""
     images: Tensor | None = None
-    """Dense ``uint8 [B, N, H, W, 3]``, or the bank ``[M, H, W, 3]``; ``None`` without images."""
+    """Dense ``[B, N, H, W, planes]``, or the bank ``[M, H, W, planes]``; ``None`` without
+    images."""
     image_index: Tensor | None = None
     """``int64 [B, N]`` rows of the bank (banked form only)."""
     ticks: Tensor | None = None
@@ -82,7 +85,7 @@ class ObsBatch:
         return ObsBatch(self.vectors.to(device), images, index, ticks)
 
     def dense_images(self) -> Tensor | None:
-        """``uint8 [B, N, H, W, 3]`` whatever the form (a banked batch gathers its bank)."""
+        """``[B, N, H, W, planes]`` whatever the form (a banked batch gathers its bank)."""
         if self.images is None or self.image_index is None:
             return self.images
         return self.images[self.image_index]

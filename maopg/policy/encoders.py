@@ -15,7 +15,7 @@ from collections.abc import Sequence
 import torch
 from torch import Tensor, nn
 
-from maopg.env.contract import EnvSpec
+from maopg.env.contract import EnvSpec, ImageChannels
 from maopg.policy.batch import ObsBatch, compact_bank, vector_slices
 from maopg.policy.choices import PRECISION_NAMES
 
@@ -48,27 +48,61 @@ def init_orthogonal(module: nn.Module, gain: float) -> None:
             nn.init.zeros_(layer.bias)
 
 
+def image_inputs(images: Tensor, channels: ImageChannels) -> Tensor:
+    """``float [M, C, H, W]`` CNN inputs of images ``[M, H, W, planes]`` holding ``channels``,
+    each channel normalised to [0, 1]: colour divided by 255, depth as ``(d - near) / (far -
+    near)`` (clipped: :attr:`~ImageChannels.depth_range`), segmentation one-hot over the
+    task's classes (a class id is a category, not a quantity), so ``C`` is
+    :attr:`~ImageChannels.inputs`: 3 + 1 + K with every channel on."""
+    if channels.names == ("rgb",):  # colour alone: the bytes straight to floats
+        return images.permute(0, 3, 1, 2).float().div_(255.0)
+    parts = []
+    for name in channels.names:
+        plane = images[..., channels.plane_slice(name)].float()
+        if name == "rgb":
+            parts.append(plane.div_(255.0))
+        elif name == "depth":
+            near, far = channels.depth_range  # type: ignore[misc]  (depth is on)
+            parts.append(plane.sub_(near).div_(far - near).clamp_(0.0, 1.0))
+        else:
+            ids = plane[..., 0].long().clamp_(0, len(channels.classes) - 1)
+            parts.append(nn.functional.one_hot(ids, len(channels.classes)).float())
+    return torch.cat(parts, dim=-1).permute(0, 3, 1, 2)
+
+
 class NatureCNN(nn.Module):
     """The DQN-Nature conv stack (32-64-64 channels) + a linear layer, for 36-128 px cameras.
 
-    Input: ``uint8 [M, H, W, 3]`` images straight from the environment; scaled to [0, 1] here so
-    rollout buffers can keep bytes. Output: ``float [M, features]`` (after ReLU).
+    Input: images ``[M, H, W, planes]`` straight from the environment, of ``channels``
+    (default colour alone, uint8 ``[M, H, W, 3]``): normalised per channel here
+    (:func:`image_inputs`) so rollout buffers keep the environment's compact form. The first
+    convolution reads :attr:`~ImageChannels.inputs` channels, so a checkpoint's weights fit
+    the channels it was trained with. Output: ``float [M, features]`` (after ReLU).
     """
 
     MIN_SIZE = 36
     """Smallest side the 8/4 → 4/2 → 3/1 conv stack maps to at least one pixel."""
 
-    def __init__(self, image_shape: tuple[int, int, int], features: int = 256) -> None:
+    def __init__(
+        self,
+        image_shape: tuple[int, int, int],
+        features: int = 256,
+        channels: ImageChannels | None = None,
+    ) -> None:
         super().__init__()
-        height, width, channels = image_shape
-        if min(height, width) < self.MIN_SIZE or channels != 3:
+        channels = channels or ImageChannels()
+        height, width, planes = image_shape
+        if min(height, width) < self.MIN_SIZE or planes != channels.planes:
             raise ValueError(
-                f"NatureCNN needs RGB images of at least {self.MIN_SIZE}x{self.MIN_SIZE} "
-                f"(image_size >= {self.MIN_SIZE}), got {image_shape}"
+                f"NatureCNN needs images of at least {self.MIN_SIZE}x{self.MIN_SIZE} "
+                f"(image_size >= {self.MIN_SIZE}) with the {channels.planes} planes of "
+                f"{'+'.join(channels.names)}, got {image_shape}"
             )
         self.image_shape = tuple(image_shape)
+        self.channels = channels
+        self._dtype = getattr(torch, channels.dtype)
         self.convs = nn.Sequential(
-            nn.Conv2d(3, 32, kernel_size=8, stride=4),
+            nn.Conv2d(channels.inputs, 32, kernel_size=8, stride=4),
             nn.ReLU(),
             nn.Conv2d(32, 64, kernel_size=4, stride=2),
             nn.ReLU(),
@@ -77,7 +111,7 @@ class NatureCNN(nn.Module):
             nn.Flatten(),
         )
         with torch.no_grad():
-            flat = self.convs(torch.zeros(1, 3, height, width)).shape[1]
+            flat = self.convs(torch.zeros(1, channels.inputs, height, width)).shape[1]
         self.fc = nn.Sequential(nn.Linear(flat, features), nn.ReLU())
         self.out_dim = features
         init_orthogonal(self, RELU_GAIN)
@@ -86,10 +120,20 @@ class NatureCNN(nn.Module):
         """What the convolutions and the linear layer compute in (:func:`set_precision`); the
         weights, their gradients and the output stay ``float32`` whatever it is."""
 
+    @classmethod
+    def of_spec(cls, spec: EnvSpec, features: int = 256) -> NatureCNN:
+        """The CNN for the camera images of ``spec`` (which must have them)."""
+        if spec.image_shape is None:
+            raise ValueError(f"task {spec.task!r} was created without images")
+        return cls(spec.image_shape, features, spec.image_channels)
+
     def forward(self, images: Tensor) -> Tensor:
-        if images.dtype != torch.uint8:
-            raise TypeError(f"NatureCNN takes uint8 images (scaled here), got {images.dtype}")
-        x = images.permute(0, 3, 1, 2).float().div_(255.0)
+        if images.dtype != self._dtype:
+            raise TypeError(
+                f"NatureCNN takes {self.channels.dtype} images of {'+'.join(self.channels.names)} "
+                f"(normalised here), got {images.dtype}"
+            )
+        x = image_inputs(images, self.channels)
         if self.compute_dtype == torch.float32:
             return self.fc(self.convs(x))
         with torch.autocast(x.device.type, dtype=self.compute_dtype):
@@ -155,7 +199,7 @@ class _FusionEncoder(nn.Module):
         self.register_buffer(
             "cameras", torch.tensor(self.agents, dtype=torch.long), persistent=False
         )
-        self.cnn = NatureCNN(spec.image_shape, cnn_features) if use_images else None  # type: ignore[arg-type]
+        self.cnn = NatureCNN.of_spec(spec, cnn_features) if use_images else None
         in_dim = len(columns) + (len(self.agents) * cnn_features if use_images else 0)
         if in_dim == 0:
             raise ValueError("nothing to encode: no vector entries and images off")

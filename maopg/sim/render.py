@@ -12,6 +12,14 @@ Filling RGB) and in a stress loop of ``ThreadVectorEnv`` steps, each time with b
 ``mjr_render``. Physics and scene updates (``mj_step``, ``mjv_updateScene``) still overlap:
 only context creation, the draw and the pixel read-back hold the lock.
 
+Besides colour, a camera gives depth and segmentation (:mod:`maopg.sim.channels`). Colour and
+depth come from one pass (the colour frame, then the depth buffer the same draw left behind);
+segmentation needs a pass of its own, drawn with MuJoCo's segmentation colours (each geom an
+id colour, no lighting, no sky), whose depth buffer serves where colour is off. Depth is read as
+``mujoco.Renderer``'s depth mode reads it (:func:`metric_depth`) and clipped to the task's
+range (:func:`depth_range`); ``bench/perf/camera_channels.py`` prints what each combination
+costs.
+
 A renderer still open when the interpreter exits (an error unwound past its owner's ``close``)
 is closed by an exit hook that runs before MuJoCo's own, which terminates the EGL display:
 freed later, each context would print two ``EGLError`` tracebacks under the real error.
@@ -31,8 +39,10 @@ import mujoco
 import numpy as np
 
 import maopg  # noqa: F401  (sets MUJOCO_GL=egl before mujoco renders)
+from maopg.sim.channels import RGB, ImageChannels
 from maopg.sim.culling import cull_outside_view
 from maopg.sim.egl_check import RenderError, gl_problem
+from maopg.sim.segmentation import ClassTable
 
 GL_LOCK = threading.RLock()
 """Held by every GL call of this module (see the module docstring for why)."""
@@ -110,13 +120,46 @@ def _close_all_at_exit() -> None:
     atexit.register(close_all)
 
 
+def depth_range(model: mujoco.MjModel) -> tuple[float, float]:
+    """``(near, far)`` in metres of a depth channel: ``near`` is MuJoCo's near clipping plane
+    (``<visual><map znear>`` times the scene's extent: nothing nearer is drawn), ``far`` the
+    scene's extent (``model.stat.extent``, the size MuJoCo gives the whole scene, more than
+    any distance inside an arena). GL's own far plane lies 50 extents away by default, where
+    the sky is drawn too: clipping at the extent keeps the range a CNN normalises by the
+    room's size, and a pixel of sky reads ``far`` as one beyond the room does."""
+    extent = float(model.stat.extent)
+    return float(model.vis.map.znear) * extent, extent
+
+
+def metric_depth(buffer: np.ndarray, model: mujoco.MjModel, orthographic: bool) -> np.ndarray:
+    """Metres along the view axis (``float64``) of a depth buffer MuJoCo read in its
+    reversed-Z form (``mjDEPTH_ZEROFAR``, what ``mujoco.Renderer`` sets): the same arithmetic
+    as ``mujoco.Renderer``'s depth mode (its planes in ``float32`` as ``glFrustum`` has them,
+    the division in ``float64``)."""
+    extent = model.stat.extent
+    znear = np.float32(model.vis.map.znear * extent)
+    zfar = np.float32(model.vis.map.zfar * extent)
+    z = buffer.astype(np.float64)
+    if orthographic:
+        return zfar - z * (zfar - znear)
+    c_coef = -(zfar + znear) / (zfar - znear)
+    d_coef = -(np.float32(2) * zfar * znear) / (zfar - znear)
+    return (np.float32(-0.5) * d_coef) / (z + np.float32(-0.5) * c_coef - np.float32(0.5))
+
+
+_SEGMENT_FLAGS = (mujoco.mjtRndFlag.mjRND_SEGMENT, mujoco.mjtRndFlag.mjRND_IDCOLOR)
+
+
 class CameraRenderer:
-    """RGB observations from named/indexed cameras: uint8 ``[N, H, W, 3]``.
+    """Observations from named/indexed cameras: ``[N, H, W, planes]`` of ``channels``
+    (:class:`~maopg.sim.channels.ImageChannels`; default colour only, uint8 ``[N, H, W, 3]``).
 
     ``fast=True`` (default) is the observation setting: no shadows, no reflections, no
     multisampling, and the geoms out of the camera's view are not drawn (the same pixels,
     :mod:`maopg.sim.culling`). ``fast=False`` keeps MuJoCo's defaults (shadows, offsamples from
-    the model, 4 unless the MJCF says otherwise), for benchmarks and pretty pictures.
+    the model, 4 unless the MJCF says otherwise), for benchmarks and pretty pictures; it gives
+    colour and depth only (multisampling blends segmentation colours at every edge).
+    Segmentation needs the scene's ``classes`` (:func:`maopg.sim.segmentation.class_table`).
     """
 
     def __init__(
@@ -127,13 +170,23 @@ class CameraRenderer:
         *,
         fast: bool = True,
         detail: tuple[int, int, int] | None = None,
+        channels: ImageChannels = RGB,
+        classes: ClassTable | None = None,
     ) -> None:
+        if "seg" in channels.names and (classes is None or not fast):
+            raise ValueError("segmentation needs fast=True and the scene's class table")
         self.height, self.width = height, width
+        self.channels = channels
+        self._model = model
+        self._classes = classes
         self._cull = fast  # a geom out of view may cast a shadow or a reflection into it
         offsamples = 0 if fast else int(model.vis.quality.offsamples)
         self._renderer = make_renderer(
             model, height, width, shadows=not fast, offsamples=offsamples, detail=detail
         )
+        self._rect = mujoco.MjrRect(0, 0, width, height)
+        self._colour = np.empty((height, width, 3), np.uint8)
+        self._depth = np.empty((height, width), np.float32)
         _OPEN.add(self)
         _close_all_at_exit()
 
@@ -144,19 +197,67 @@ class CameraRenderer:
         out: np.ndarray | None = None,
     ) -> np.ndarray:
         """Render each camera into ``out[i]`` (allocated when not given) and return ``out``."""
-        shape = (len(cameras), self.height, self.width, 3)
+        shape = (len(cameras), self.height, self.width, self.channels.planes)
+        dtype = np.dtype(self.channels.dtype)
         if out is None:
-            out = np.empty(shape, dtype=np.uint8)
-        elif out.shape != shape or out.dtype != np.uint8 or not out.flags.c_contiguous:
-            raise ValueError(f"out must be a C-contiguous uint8 array of shape {shape}")
+            out = np.empty(shape, dtype=dtype)
+        elif out.shape != shape or out.dtype != dtype or not out.flags.c_contiguous:
+            raise ValueError(f"out must be a C-contiguous {dtype} array of shape {shape}")
         renderer = self._renderer
         for i, camera in enumerate(cameras):
             renderer.update_scene(data, camera=camera)
             if self._cull:
                 cull_outside_view(renderer.scene, self.width / self.height)
             with GL_LOCK:
-                renderer.render(out=out[i])
+                if self.channels.names == ("rgb",):
+                    renderer.render(out=out[i])
+                else:
+                    self._render_channels(out[i])
         return out
+
+    def _render_channels(self, frame: np.ndarray) -> None:
+        """Fill ``frame`` (``[H, W, planes]``) with the channels: a colour pass when colour is
+        on, a segmentation pass when seg is on or colour is off; depth is the depth buffer of
+        the first of them (the module docstring). The GL lock is held."""
+        names, channels, renderer = self.channels.names, self.channels, self._renderer
+        depth = "depth" in names
+        if "rgb" in names:
+            renderer.render(out=self._colour)
+            frame[..., channels.plane_slice("rgb")] = self._colour
+            if depth:
+                self._read_depth(frame[..., channels.plane_slice("depth")])
+                depth = False
+            if "seg" not in names:
+                return
+        flags = renderer.scene.flags
+        saved = [bool(flags[flag]) for flag in _SEGMENT_FLAGS]
+        for flag in _SEGMENT_FLAGS:
+            flags[flag] = True
+        try:
+            renderer.render(out=self._colour)
+            if depth:
+                self._read_depth(frame[..., channels.plane_slice("depth")])
+        finally:
+            for flag, value in zip(_SEGMENT_FLAGS, saved, strict=True):
+                flags[flag] = value
+        if "seg" in names:
+            assert self._classes is not None
+            ids = self._colour.astype(np.int32)
+            segment = ids[..., 0] | ids[..., 1] << 8 | ids[..., 2] << 16
+            lookup = self._classes.lookup(renderer.scene)
+            np.minimum(segment, len(lookup) - 1, out=segment)
+            frame[..., channels.plane_slice("seg")] = lookup[segment][..., None]
+
+    def _read_depth(self, plane: np.ndarray) -> None:
+        """Read the depth buffer of the pass just drawn into ``plane`` (``[H, W, 1]``), in
+        metres clipped to the channels' range. ``mujoco.Renderer`` reads depth only by drawing
+        again; its GL context (``_mjr_context``) reads the buffer this draw left."""
+        context = self._renderer._mjr_context  # mujoco's: no public reader
+        mujoco.mjr_readPixels(None, self._depth, self._rect, context)
+        near, far = self.channels.depth_range  # type: ignore[misc]  (depth is on)
+        orthographic = bool(self._renderer.scene.camera[0].orthographic)
+        metres = metric_depth(self._depth[::-1], self._model, orthographic)
+        plane[..., 0] = np.clip(metres, near, far)
 
     def close(self) -> None:
         """Free the GL context now (at interpreter exit EGL teardown may already be gone)."""

@@ -32,15 +32,20 @@ position inside the arena) belongs in the task's constructor, before it compiles
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from functools import cached_property
 from typing import Any, ClassVar
 
+import mujoco
 import numpy as np
 
 from maopg.options.base import Option, Strategy
-from maopg.sim.render import CameraRenderer
-from maopg.sim.robots import RobotAdapter
+from maopg.sim.channels import RGB, ImageChannels, parse_channels
+from maopg.sim.mounts import Mount, mount_camera
+from maopg.sim.render import CameraRenderer, depth_range
+from maopg.sim.robots import RobotAdapter, role_of
 from maopg.sim.scene import Scene
+from maopg.sim.segmentation import ClassTable, class_table
 from maopg.tasks.config import (  # noqa: F401  (a task module finds its config's bases here too)
     MAX_IMAGE_SIZE,
     SceneTaskConfig,
@@ -151,8 +156,14 @@ class Task(ABC):
         out as :meth:`observation_layout`."""
 
     def render(self, agents: Sequence[int], out: np.ndarray) -> None:
-        """Render the listed agents' cameras into ``out[agent]`` (uint8 ``[N, H, W, 3]``)."""
+        """Render the listed agents' cameras into ``out[agent]`` (``[N, H, W, planes]`` of
+        :meth:`image_channels`; colour only: uint8 ``[N, H, W, 3]``)."""
         raise NotImplementedError(f"task {self.name!r} has no camera observations")
+
+    def image_channels(self) -> ImageChannels:
+        """What :meth:`render` puts in each image (:mod:`maopg.sim.channels`): colour only,
+        unless the task renders more."""
+        return RGB
 
     def describe(self) -> dict[str, object]:
         """Task state for logs and video overlays (human stage, jar levels, ...)."""
@@ -188,23 +199,105 @@ def require_strategy(
 class SceneTask(Task):
     """A task whose agents are the robots of one compiled :class:`~maopg.sim.scene.Scene`.
 
-    Subclasses set ``self.scene`` and ``self.agent_robots`` (adapters in agent order); this
-    class then provides holding, camera observations and cleanup. The renderer is created on
-    first use, so building a task in a parent process never creates a GL context (a ``fork``ed
-    child would hang on it, docs/DESIGN.md §2).
+    Subclasses set ``self.config``, then ``self.scene``, then ``self.agent_robots`` (adapters
+    in agent order); this class then provides holding, camera observations and cleanup.
+    Setting ``agent_robots`` mounts the robots' cameras as the config's camera settings say
+    (``env.camera_fovy``, ``camera_offset``, ``camera_rotation``, per robot role:
+    :mod:`maopg.sim.mounts`), so every scene task, a user's included, gets them without code
+    of its own; at their defaults the model is left as compiled. The renderer is created on
+    first use, so building a task in a parent process never creates a GL context (a
+    ``fork``ed child would hang on it, docs/DESIGN.md §2).
     """
 
     scene: Scene
-    agent_robots: Sequence[RobotAdapter]
     _renderer: CameraRenderer | None = None
+    _agent_robots: tuple[RobotAdapter, ...] = ()
+    _mounts: dict[int, Mount] | None = None
+    """Each re-mounted camera's mount as compiled."""
+
+    prop_classes: ClassVar[Mapping[str, str]] = {}
+    """The segmentation classes of the task's props: each prop kind (a prop body's name
+    without instance number or attachment prefix: ``jar0/jar`` → ``jar``) → its class
+    (:mod:`maopg.sim.segmentation`). The classes follow ``background, floor, wall, robot,
+    distractor`` in the order of this mapping's values; a kind not in it is a class of its
+    own, after them in name order."""
+
+    @property
+    def agent_robots(self) -> tuple[RobotAdapter, ...]:
+        """The agents' robot adapters, in agent order."""
+        return self._agent_robots
+
+    @agent_robots.setter
+    def agent_robots(self, robots: Sequence[RobotAdapter]) -> None:
+        self._agent_robots = tuple(robots)
+        self._mount_cameras()
+
+    def _mount_cameras(self) -> None:
+        """Apply the config's camera settings to the robots' cameras (always from the mount
+        the model was compiled with, so doing it again changes nothing)."""
+        config = getattr(self, "config", None)
+        if config is None:
+            raise AttributeError(
+                f"{type(self).__name__}: set self.config before self.agent_robots (the robots' "
+                "cameras are mounted as its camera settings say)"
+            )
+        if not isinstance(config, SceneTaskConfig):
+            return
+        model = self.scene.model
+        if self._mounts is None:
+            self._mounts = {}
+        moved = False
+        for robot in self._agent_robots:
+            mount = config.camera_mount(role_of(type(robot)))
+            if mount.as_compiled:
+                continue  # not a bit of the model changes
+            moved = True
+            home = self._mounts.setdefault(robot.camera_id, Mount.of(model, robot.camera_id))
+            mount_camera(
+                model,
+                robot.camera_id,
+                home,
+                fovy=mount.fovy,
+                offset=mount.offset,
+                rotation=mount.rotation,
+            )
+        if moved:  # the cameras' world poses now, not at the next step
+            mujoco.mj_camlight(model, self.scene.data)
 
     def hold(self, agent: int) -> None:
         self.agent_robots[agent].hold()
 
+    @cached_property
+    def segmentation(self) -> ClassTable:
+        """The segmentation class of every geom of the scene (:mod:`maopg.sim.segmentation`),
+        made once per build."""
+        roots = [robot.root_body_id for robot in self.scene.robots.values()]
+        return class_table(self.scene.model, roots, self.prop_classes)
+
+    def image_channels(self) -> ImageChannels:
+        config = self.config
+        names = (
+            parse_channels(config.camera_channels)
+            if isinstance(config, SceneTaskConfig)
+            else RGB.names
+        )
+        return ImageChannels(
+            names,
+            depth_range(self.scene.model) if "depth" in names else None,
+            self.segmentation.classes if "seg" in names else (),
+        )
+
+    def camera_renderer(self, height: int, width: int) -> CameraRenderer:
+        """A renderer of the robots' cameras giving :meth:`image_channels` (the observations'
+        and the video's tiles)."""
+        channels = self.image_channels()
+        classes = self.segmentation if "seg" in channels.names else None
+        return CameraRenderer(self.scene.model, height, width, channels=channels, classes=classes)
+
     def render(self, agents: Sequence[int], out: np.ndarray) -> None:
         if self._renderer is None:
             size = self.config.image_size
-            self._renderer = CameraRenderer(self.scene.model, size, size)
+            self._renderer = self.camera_renderer(size, size)
         for i in agents:
             camera = self.agent_robots[i].camera_id
             self._renderer.render(self.scene.data, [camera], out=out[i : i + 1])

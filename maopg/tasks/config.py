@@ -10,7 +10,9 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import ClassVar
 
-from maopg.settings import Settings, setting
+from maopg.settings import Settings, field_bounds, setting
+from maopg.sim.channels import parse_channels
+from maopg.tasks.camera_settings import CameraMount, role_values, value_for
 
 MAX_IMAGE_SIZE = 4096
 """The largest camera image (px a side) a config accepts: far beyond what an observation needs,
@@ -48,9 +50,69 @@ class SceneTaskConfig(TaskConfig):
     """Simulated time of one tick, one low-level step (s)."""
     timestep: float = setting(0.002, gt=0.0)
     """Physics step (s)."""
+    camera_channels: str = "rgb"
+    """What each camera image holds, any of rgb, depth (metres) and seg (class ids) joined by
+    '+' (rgb+depth+seg), stacked in that order. One set for the whole team: every agent's
+    image goes through one shared CNN. Resolution is the run's image_size, for the same
+    reason."""
+    camera_fovy: float | str | None = setting(None, gt=0.0, lt=180.0)
+    """Vertical field of view of the robots' cameras (degrees), for every robot (90) or per
+    role (ground:70,drone:110; an entry without a role sets the others); null: each robot's
+    own."""
+    camera_offset: tuple[float, float, float] | str = (0.0, 0.0, 0.0)
+    """Moves each robot's camera on its mount, metres along the camera's own axes (x right,
+    y up, z backward, away from what it looks at): [0, 0.1, 0] for every robot, or per role
+    (drone:0 0 -0.05)."""
+    camera_rotation: tuple[float, float, float] | str = (0.0, 0.0, 0.0)
+    """Turns each robot's camera on its mount, degrees about its own x (tilts the view up),
+    then y (turns it left), then z (rolls it) axis: for every robot, or per role (ground:-10
+    0 0)."""
+
+    CAMERA_SIZES: ClassVar[Mapping[str, int]] = {
+        "camera_fovy": 1,
+        "camera_offset": 3,
+        "camera_rotation": 3,
+    }
+    """The per-role camera settings (:mod:`maopg.tasks.camera_settings`) and the numbers of
+    one value."""
+
+    def camera_roles(self) -> tuple[str, ...]:
+        """The roles a per-role camera setting may name: those of the task's robot fields
+        (``ROBOT_ROLES``), or every role where the task declares none."""
+        if self.ROBOT_ROLES:
+            return tuple(dict.fromkeys(self.ROBOT_ROLES.values()))
+        from maopg.sim.robots import ROLES
+
+        return tuple(ROLES)
+
+    def camera_mount(self, role: str) -> CameraMount:
+        """What the camera settings give a robot of ``role``."""
+        values = {
+            name: value_for(
+                role_values(self.PREFIX + name, getattr(self, name), size, self.camera_roles()),
+                role,
+            )
+            for name, size in self.CAMERA_SIZES.items()
+        }
+        return CameraMount(
+            values["camera_fovy"],  # type: ignore[arg-type]  (one number)
+            values["camera_offset"] or (0.0, 0.0, 0.0),  # type: ignore[arg-type]  (three)
+            values["camera_rotation"] or (0.0, 0.0, 0.0),  # type: ignore[arg-type]
+        )
 
     def validate(self) -> None:
         super().validate()
+        parse_channels(self.camera_channels, self.PREFIX + "camera_channels")
+        for name, size in self.CAMERA_SIZES.items():
+            value = getattr(self, name)
+            if not isinstance(value, str):
+                continue  # a number or a tuple: checked by its kind and bounds
+            setting_name = self.PREFIX + name
+            bounds = field_bounds(type(self), name)
+            for number in role_values(setting_name, value, size, self.camera_roles()).values():
+                problem = bounds.problem(number)
+                if problem:
+                    raise ValueError(f"{setting_name} {problem}, got {value!r}")
         steps = round(self.tick_seconds / self.timestep)
         if steps < 1 or abs(steps * self.timestep - self.tick_seconds) > 1e-6 * max(
             1.0, self.tick_seconds

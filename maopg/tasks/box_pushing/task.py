@@ -63,9 +63,9 @@ one tick each; a MoveForward that stalls or faces the wall is penalised).
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 import mujoco
 import numpy as np
@@ -133,6 +133,13 @@ class BoxPushing(SceneTask):
 
     name = "box_pushing"
     Config = Config
+    prop_classes: ClassVar[Mapping[str, str]] = {
+        "small_box": "small_box",
+        "big_box": "big_box",
+        "goal": "goal",
+        "waypoint": "waypoint",
+    }
+    """Segmentation: the boxes, the goal strip and the GoTo waypoints' markers."""
 
     def __init__(self, config: Config | None = None) -> None:
         self.config = config = config or Config()

@@ -24,9 +24,9 @@ and gives up when it exceeds ``max_wait_ticks`` (10 full ticks of waiting after 
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -111,6 +111,14 @@ class ToolDelivery(SceneTask):
 
     name = "tool_delivery"
     Config = Config
+    prop_classes: ClassVar[Mapping[str, str]] = {
+        "desk": "desk",
+        "shelf": "shelf",
+        "human": "human",
+        "tool": "tool",
+    }
+    """Segmentation: the tool room's desk and shelves, the humans (their bench and stage
+    panel too), the tools."""
 
     def __init__(self, config: Config | None = None) -> None:
         self.config = config = config or Config()

@@ -41,8 +41,8 @@ without normalisation).
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
-from typing import Any
+from collections.abc import Mapping, Sequence
+from typing import Any, ClassVar
 
 import mujoco
 import numpy as np
@@ -70,6 +70,13 @@ class WaterFilling(SceneTask):
 
     name = "water_filling"
     Config = Config
+    prop_classes: ClassVar[Mapping[str, str]] = {
+        "jar": "jar",
+        **dict.fromkeys(
+            ("sofa", "armchair", "coffee_table", "tv_cabinet", "plant", "bookshelf"), "furniture"
+        ),
+    }
+    """Segmentation: the jars (stand, glass and water) and the room's furniture."""
 
     def __init__(self, config: Config | None = None) -> None:
         self.config = config = config or Config()
