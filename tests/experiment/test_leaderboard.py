@@ -11,7 +11,10 @@ import numpy as np
 import pytest
 
 from maopg.experiment.studies import Study, StudyTask, frozen, get_study, registry
+from maopg.experiment.studies.builtin import FEW_EPISODES
+from maopg.experiment.studies.grid import Cell, cell_config
 from maopg.experiment.studies.leaderboard import (
+    AGENT_METHODS,
     BOARDS,
     TUNING,
     Board,
@@ -45,6 +48,26 @@ def test_the_boards_are_the_issues_tasks_at_their_studies_settings():
                 get_study(board.study).overrides
             ).get("total_samples")
             assert method in get_study(home).methods or method in get_study(home).baselines
+
+
+def test_the_literature_methods_take_their_few_episode_settings_off_box_pushing(tmp_path):
+    """On the boards whose budgets hold hundreds of episodes ACAC and Mac-IAICC train with
+    their few-episode settings, labelled so; on Box Pushing with their published ones."""
+    for board in BOARDS:
+        few = not board.task.startswith("box_pushing")
+        for method in AGENT_METHODS:
+            assert (board.tuning_of(method) == "few-episode settings") == few, board.name
+            assert (board.method_overrides.get(method) == FEW_EPISODES[method]) == few
+    board = BOARDS[0]
+    ((study, root, _),) = [g for g in board.grids(tmp_path) if "acac" in g[2]]
+    acac = cell_config(Cell(board.task, "acac", 0), root, study)[0]
+    mac = cell_config(Cell(board.task, "mac-iaicc", 0), root, study)[0]
+    assert (acac.learner.clip, acac.learner.train_repeat, acac.learner.explore_decay) == (
+        0.2,
+        10,
+        50,
+    )
+    assert (mac.learner.n_step, mac.learner.episodes_per_update) == (5, 4)
 
 
 @pytest.mark.parametrize("board", [b for b in BOARDS if "_8" in b.name], ids=lambda b: b.name)

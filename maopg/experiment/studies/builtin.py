@@ -183,6 +183,41 @@ one in five while ε is still high (0.67 there), so its runs go on to 2.5M sampl
 published 500K and are read on either counter."""
 
 
+FEW_EPISODES = frozen(
+    {
+        "acac": frozen(
+            {
+                "acac.episodes_per_update": 4,
+                "acac.explore_decay": 50,
+                "acac.clip": 0.2,
+                "acac.train_repeat": 10,
+                "acac.lr": 5e-4,
+                "acac.critic_lr": 5e-4,
+            }
+        ),
+        "mac-iaicc": frozen(
+            {
+                "maciaicc.n_step": 5,
+                "maciaicc.lr": 5e-4,
+                "maciaicc.critic_lr": 5e-4,
+                "maciaicc.episodes_per_update": 4,
+                "maciaicc.target_every": 32,
+                "maciaicc.explore_decay": 50,
+            }
+        ),
+    }
+)
+"""ACAC and Mac-IAICC where a budget holds hundreds of episodes rather than the tens of
+thousands their Box Pushing settings are made for: Tool Delivery's 100K samples are about 670
+episodes of up to 150 ticks, where ACAC's published ε (falling over 30,000 episodes) would still
+be 0.98 at the end and its 16-episode rounds of two clipped epochs would make about 40 small
+updates. ACAC: rounds of 4 episodes updated as maopg's PPO (clip 0.2, 10 epochs, learning
+rates 5e-4), ε over 50 episodes. Mac-IAICC: MacroMARL's Warehouse (tool delivery) scripts —
+5-step targets, learning rates 5e-4 and 5e-4, 4 episodes a round, targets every 32 episodes —
+with ε over 50 episodes (theirs falls over 10,000 of 40,000). Chosen by pilots on Tool
+Delivery at 30K samples, 3 seeds each (docs/results/leaderboard.md, the pilots' table)."""
+
+
 def macromarl(size: int) -> Settings:
     """Mac-IAICC as MacroMARL's Box Pushing scripts run it at ``size``: 32 environments and 32
     episodes a round, γ = 0.98, the target critics copied every 128 episodes on 6x6 and 64 on

@@ -37,6 +37,7 @@ import numpy as np
 from maopg.experiment.studies.builtin import (
     ACAC_COLLECTION,
     BOX_PUSHING_METHODS,
+    FEW_EPISODES,
     PAPER_METHODS,
     macromarl,
 )
@@ -85,16 +86,22 @@ TUNING: Mapping[str, str] = {
     "acac": "ACAC published (Box Pushing)",
     "mac-iaicc": "MacroMARL scripts (Box Pushing)",
 }
-"""How each method's settings were chosen, the label beside its rows (:data:`TUNING_NOTE`)."""
+"""How each method's settings were chosen, the label beside its rows (:data:`TUNING_NOTE`)
+unless a board says otherwise (:attr:`Board.tuning`)."""
+FEW_EPISODES_TUNING = frozen(dict.fromkeys(AGENT_METHODS, "few-episode settings"))
+"""The label of :data:`~maopg.experiment.studies.builtin.FEW_EPISODES` beside its rows."""
 TUNING_NOTE = (
     "Tuning: *maopg defaults* — one set of settings for every task, chosen on Tool Delivery and "
     "Water Filling in the paper's reproduction, no per-task tuning; *memory study's GRU* — "
     "those plus the option history and layer norm the memory study found the GRU needs; *ACAC "
-    "published* — ACAC's published Box Pushing settings (box-pushing reference §10) on every "
-    "task, with its 32 environments and γ 0.98 on Box Pushing, no tuning here; *MacroMARL "
-    "scripts* — Mac-IAICC's settings in MacroMARL's Box Pushing scripts on every task (with "
-    "its 32 environments, γ 0.98 and each size's target and ε schedule on Box Pushing), no "
-    "tuning here."
+    "published* — ACAC's published Box Pushing settings (box-pushing reference §10) with its "
+    "32 environments and γ 0.98, no tuning here; *MacroMARL scripts* — Mac-IAICC's settings "
+    "in MacroMARL's Box Pushing scripts (32 environments, γ 0.98, each size's target and ε "
+    "schedule), no tuning here; *few-episode settings* — on the tasks whose budgets hold "
+    "hundreds of episodes, not the tens of thousands those settings are made for: ACAC "
+    "updated as maopg's PPO and Mac-IAICC as MacroMARL's Warehouse scripts, each with ε "
+    "falling over 50 episodes, chosen by pilots on Tool Delivery "
+    "(`maopg.experiment.studies.builtin.FEW_EPISODES`)."
 )
 """What each :data:`TUNING` label means."""
 
@@ -113,6 +120,12 @@ class Board:
     methods are read from it without saying)."""
     method_overrides: Mapping[str, Settings] = field(default_factory=frozen)
     """Train settings of the methods trained here (those no committed study runs)."""
+    tuning: Mapping[str, str] = field(default_factory=frozen)
+    """Method → how its settings were chosen on this board, where not :data:`TUNING`'s."""
+
+    def tuning_of(self, method: str) -> str:
+        """The tuning label beside ``method``'s row (:data:`TUNING_NOTE`)."""
+        return self.tuning.get(method, TUNING.get(method, "—"))
 
     def home(self, method: str) -> str | None:
         """The committed study whose runs hold ``method``'s cells, ``None`` for the
@@ -151,9 +164,12 @@ class Board:
 def _boards() -> tuple[Board, ...]:
     """The leaderboard's boards (module docstring): the issue's tasks, each at its committed
     study's settings. In MuJoCo's Box Pushing ACAC and Mac-IAICC collect as on the grid (32
-    environments, γ 0.98, Mac-IAICC's 6x6 targets and ε) within the study's budget."""
+    environments, γ 0.98, Mac-IAICC's 6x6 targets and ε) within the study's budget; on the
+    other tasks, whose budgets hold hundreds of episodes, they take their few-episode settings
+    (:data:`~maopg.experiment.studies.builtin.FEW_EPISODES`)."""
     grid_methods = (*BOX_PUSHING_METHODS, *AGENT_METHODS)
     mujoco = {k: v for k, v in macromarl(6)["mac-iaicc"].items() if k != "total_samples"}
+    few = {"method_overrides": FEW_EPISODES, "tuning": FEW_EPISODES_TUNING}
     return (
         Board(
             "tool_delivery",
@@ -161,6 +177,7 @@ def _boards() -> tuple[Board, ...]:
             "tool_delivery",
             (*PAPER_METHODS, "async-ar", *AGENT_METHODS),
             reuse=frozen({"async-ar": "chain-rule"}),
+            **few,
         ),
         Board(
             "water_filling",
@@ -168,6 +185,7 @@ def _boards() -> tuple[Board, ...]:
             "water_filling",
             (*PAPER_METHODS, "async-rnn", *AGENT_METHODS),
             reuse=frozen({"async-rnn": "memory"}),
+            **few,
         ),
         Board("box_pushing_grid_6", "box-pushing-6", "box_pushing_grid", grid_methods),
         Board("box_pushing_grid_10", "box-pushing-10", "box_pushing_grid", grid_methods),
@@ -178,11 +196,21 @@ def _boards() -> tuple[Board, ...]:
             grid_methods,
             method_overrides=frozen({"acac": ACAC_COLLECTION, "mac-iaicc": frozen(mujoco)}),
         ),
-        Board("tool_delivery_8_masked", "teams", "tool_delivery", (*TEAM_METHODS, *AGENT_METHODS)),
         Board(
-            "tool_delivery_8", "teams-canonical", "tool_delivery", (*TEAM_METHODS, *AGENT_METHODS)
+            "tool_delivery_8_masked",
+            "teams",
+            "tool_delivery",
+            (*TEAM_METHODS, *AGENT_METHODS),
+            **few,
         ),
-        Board("water_filling_8", "teams", "water_filling", (*TEAM_METHODS, *AGENT_METHODS)),
+        Board(
+            "tool_delivery_8",
+            "teams-canonical",
+            "tool_delivery",
+            (*TEAM_METHODS, *AGENT_METHODS),
+            **few,
+        ),
+        Board("water_filling_8", "teams", "water_filling", (*TEAM_METHODS, *AGENT_METHODS), **few),
     )
 
 
@@ -275,7 +303,7 @@ def board_table(board: Board, rows: Sequence[Entry]) -> str:
     for method in board.methods:
         mine = sorted((e for e in rows if e.method == method), key=lambda e: e.seed)
         if not mine:
-            table.append([method, TUNING.get(method, "—"), "0", "—", "—", "—", "not run yet"])
+            table.append([method, board.tuning_of(method), "0", "—", "—", "—", "not run yet"])
             continue
         running = sum(not e.finished for e in mine)
         seeds = f"{len(mine)}" + (f" ({running} running)" if running else "")
@@ -288,7 +316,7 @@ def board_table(board: Board, rows: Sequence[Entry]) -> str:
         table.append(
             [
                 method,
-                TUNING.get(method, "—"),
+                board.tuning_of(method),
                 seeds,
                 _interval([e.final_return for e in mine], "{:.1f}".format),
                 _interval([e.score for e in mine], "{:.2f}".format),
