@@ -38,6 +38,8 @@ from typing import Any, ClassVar
 import numpy as np
 
 from maopg.options.base import Option, Strategy
+from maopg.sim.appearance import Appearance, Surfaces
+from maopg.sim.looks import OFF
 from maopg.sim.render import CameraRenderer
 from maopg.sim.robots import RobotAdapter
 from maopg.sim.scene import Scene
@@ -119,6 +121,11 @@ class Task(ABC):
             "idle or interrupt an agent (strategies 'all' and 'any')"
         )
 
+    def draw_appearance(self, seed: int) -> None:  # noqa: B027 (optional hook)
+        """Show the episode's look, drawn from ``seed`` (``env.appearance``); the option
+        environment calls it right after :meth:`reset` with the same seed. A task without a
+        scene has none."""
+
     @abstractmethod
     def tick(self) -> float:
         """Advance one tick: physics with the commands given this tick, then the rules.
@@ -189,14 +196,34 @@ class SceneTask(Task):
     """A task whose agents are the robots of one compiled :class:`~maopg.sim.scene.Scene`.
 
     Subclasses set ``self.scene`` and ``self.agent_robots`` (adapters in agent order); this
-    class then provides holding, camera observations and cleanup. The renderer is created on
-    first use, so building a task in a parent process never creates a GL context (a ``fork``ed
-    child would hang on it, docs/DESIGN.md §2).
+    class then provides holding, camera observations, the looks of ``env.appearance`` and
+    cleanup. The renderer is created on first use, so building a task in a parent process never
+    creates a GL context (a ``fork``ed child would hang on it, docs/DESIGN.md §2).
+
+    Its scene builder is given ``appearance=config.appearance``, which compiles in what the
+    looks need (:mod:`maopg.sim.appearance`); :attr:`surfaces` names the furniture they may
+    restyle.
     """
 
     scene: Scene
     agent_robots: Sequence[RobotAdapter]
+    surfaces: ClassVar[Surfaces] = Surfaces()
+    """The geoms ``env.appearance`` restyles (floors and walls found by their usual names by
+    default; a task adds its furniture, never what its rules or display colour)."""
     _renderer: CameraRenderer | None = None
+    _appearance: Appearance | None = None
+
+    def draw_appearance(self, seed: int) -> None:
+        appearance = getattr(self.config, "appearance", OFF)
+        if appearance == OFF:
+            return
+        if self._appearance is None:  # after building: the cameras as the task mounted them
+            cameras = [robot.camera_id for robot in self.agent_robots]
+            scene = self.scene
+            self._appearance = Appearance(
+                scene.model, scene.data, tuple(scene.robots), self.surfaces, cameras
+            )
+        self._appearance.show(appearance, seed)
 
     def hold(self, agent: int) -> None:
         self.agent_robots[agent].hold()

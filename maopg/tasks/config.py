@@ -11,6 +11,7 @@ from dataclasses import dataclass
 from typing import ClassVar
 
 from maopg.settings import Settings, setting
+from maopg.sim.looks import APPEARANCES, OFF
 
 MAX_IMAGE_SIZE = 4096
 """The largest camera image (px a side) a config accepts: far beyond what an observation needs,
@@ -48,6 +49,11 @@ class SceneTaskConfig(TaskConfig):
     """Simulated time of one tick, one low-level step (s)."""
     timestep: float = setting(0.002, gt=0.0)
     """Physics step (s)."""
+    appearance: str = setting(OFF, choices=APPEARANCES)
+    """How the scene looks, drawn per episode from its seed (domain randomisation; physics and
+    rules never change): ``off`` as built; ``light`` colours and light intensities; ``full``
+    textures, lights, camera jitter and distractors too; ``heldout`` a look never drawn in
+    training; ``dusk``, ``neon``, ``glare`` fixed held-out looks (:mod:`maopg.sim.looks`)."""
 
     def validate(self) -> None:
         super().validate()

@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 
 from maopg.options.base import Option
+from maopg.sim.appearance import Surfaces
 from maopg.tasks.base import SceneTask
 from maopg.tasks.layout import ObsLayout
 from maopg.tasks.tool_delivery.config import Config
@@ -111,6 +112,9 @@ class ToolDelivery(SceneTask):
 
     name = "tool_delivery"
     Config = Config
+    surfaces = Surfaces(props=("desk*/cabinet", "desk*/top", "shelf*/*", "human*/bench*"))
+    """The furniture: desks, shelves (the tools on them keep their colours: an agent tells them
+    apart by them) and the humans' workbenches (the stage panel shows the rules' state)."""
 
     def __init__(self, config: Config | None = None) -> None:
         self.config = config = config or Config()
