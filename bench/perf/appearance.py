@@ -8,7 +8,10 @@ the same trajectory); at every decision point each robot camera of each is drawn
 own observation renderer (``SceneTask.render``: no shadows, reflections nor multisampling,
 culled to the view), the three values back to back in an order that rotates every step, so
 machine load hits them alike. A frame's time is ``update_scene`` + culling + ``mjr_render`` +
-the pixel read-back. Then each environment is reset ``--episodes`` times: the time of
+the pixel read-back, on the wall clock and in the process's CPU time (every thread's, Mesa's
+llvmpipe rasterises on threads of its own): the CPU time is what a frame costs, which the load
+of a shared machine leaves alone, where the wall clock also counts the waits for a core. Then
+each environment is reset ``--episodes`` times: the time of
 ``Task.draw_appearance`` (draw the look, write it into the model, place what moved), and the
 compiles counted meanwhile (``MjSpec.compile`` and ``MjModel.from_*`` wrapped to count calls)
 with the model object's identity before and after.
@@ -70,13 +73,14 @@ class CompileCounter:
             setattr(owner, name, raw)
 
 
-def frames(task: str, steps: int, size: int) -> dict[str, list[float]]:
-    """Per value, the seconds of every robot-camera frame along the same trajectory."""
+def frames(task: str, steps: int, size: int) -> dict[str, dict[str, list[float]]]:
+    """Per value, the wall-clock and the process's CPU seconds of every robot-camera frame
+    along the same trajectory."""
     envs = {
         level: make_env(task, seed=0, images=True, image_size=size, overrides={"appearance": level})
         for level in LEVELS
     }
-    times: dict[str, list[float]] = {level: [] for level in LEVELS}
+    times: dict[str, dict[str, list[float]]] = {level: {"wall": [], "cpu": []} for level in LEVELS}
     streams = {
         level: decision_points(env, RandomPolicy(env.spec, seed=0), steps)
         for level, env in envs.items()
@@ -89,9 +93,10 @@ def frames(task: str, steps: int, size: int) -> dict[str, list[float]]:
             order = LEVELS[step % 3 :] + LEVELS[: step % 3]
             for agent in range(n):
                 for level in order:
-                    start = time.perf_counter()
+                    start, cpu = time.perf_counter(), time.process_time()
                     envs[level].task.render([agent], out)
-                    times[level].append(time.perf_counter() - start)
+                    times[level]["cpu"].append(time.process_time() - cpu)
+                    times[level]["wall"].append(time.perf_counter() - start)
     finally:
         for env in envs.values():
             env.close()
@@ -137,17 +142,19 @@ def main() -> None:
         f"frames; {args.episodes} episodes' looks per value\n"
     )
     print(
-        "| task | robot-camera frames per value | off (ms, median) | full (ms, median) | "
+        "| task | clock | robot-camera frames per value | off (ms, median) | full (ms, median) | "
         "heldout (ms, median) | full/off | heldout/off |"
     )
-    print("|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|")
     for task in TASKS:
         measured = frames(task, args.steps, args.size)
-        t = {level: 1e3 * statistics.median(v) for level, v in measured.items()}
-        print(
-            f"| {task} | {len(measured['off'])} | {t['off']:.2f} | {t['full']:.2f} | "
-            f"{t['heldout']:.2f} | {t['full'] / t['off']:.3f} | {t['heldout'] / t['off']:.3f} |"
-        )
+        for clock in ("wall", "cpu"):
+            t = {level: 1e3 * statistics.median(v[clock]) for level, v in measured.items()}
+            print(
+                f"| {task} | {clock} | {len(measured['off'][clock])} | {t['off']:.2f} | "
+                f"{t['full']:.2f} | {t['heldout']:.2f} | {t['full'] / t['off']:.3f} | "
+                f"{t['heldout'] / t['off']:.3f} |"
+            )
     print()
     print(
         "| task | value | first look (ms: reads the scene too) | a look per episode (µs, median) | "

@@ -297,16 +297,14 @@ class Appearance:
 
     def _place(self, look: Look) -> None:
         model = self.model
-        for body, (_, size), placement in zip(
-            self._distractors, DISTRACTOR_SHAPES, look.distractors, strict=False
-        ):
+        for body, placement in zip(self._distractors, look.distractors, strict=True):
             geom = int(model.body_geomadr[body])
             if placement is None:  # as compiled: a look leaves nothing of the one before
                 model.body_pos[body], model.body_quat[body] = (0.0, 0.0, 0.0), (1.0, 0.0, 0.0, 0.0)
                 model.geom_rgba[geom] = HIDDEN
                 continue
             x, y, floor = self._spots[placement.spot]
-            model.body_pos[body] = (x, y, floor + _half_height(model, geom, size))
+            model.body_pos[body] = (x, y, floor + _half_height(model, geom))
             yaw = placement.yaw / 2
             model.body_quat[body] = (np.cos(yaw), 0.0, 0.0, np.sin(yaw))
             model.geom_rgba[geom] = (*_not_default_grey(placement.rgb), 1.0)
@@ -375,13 +373,14 @@ def _not_default_grey(rgb: Sequence[float]) -> tuple[float, float, float]:
     return (float(rgb[0]), float(rgb[1]), float(rgb[2]))
 
 
-def _half_height(model: mujoco.MjModel, geom: int, size: Sequence[float]) -> float:
-    kind = model.geom_type[geom]
+def _half_height(model: mujoco.MjModel, geom: int) -> float:
+    """How far a distractor's geom reaches below its centre, standing upright."""
+    kind, size = model.geom_type[geom], model.geom_size[geom]
     if kind == mujoco.mjtGeom.mjGEOM_SPHERE:
-        return size[0]
+        return float(size[0])
     if kind == mujoco.mjtGeom.mjGEOM_CYLINDER:
-        return size[1]
-    return size[2]
+        return float(size[1])
+    return float(size[2])
 
 
 def _xy_boxes(model: mujoco.MjModel, data: mujoco.MjData, geoms: Sequence[int]) -> np.ndarray:
