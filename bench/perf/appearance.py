@@ -10,7 +10,8 @@ culled to the view), the three values back to back in an order that rotates ever
 machine load hits them alike. A frame's time is ``update_scene`` + culling + ``mjr_render`` +
 the pixel read-back, on the wall clock and in the process's CPU time (every thread's, Mesa's
 llvmpipe rasterises on threads of its own): the CPU time is what a frame costs, which the load
-of a shared machine leaves alone, where the wall clock also counts the waits for a core. Then
+of a shared machine leaves alone, where the wall clock also counts the waits for a core
+(``--rounds`` measures each task again, so the spread between rounds shows). Then
 each environment is reset ``--episodes`` times: the time of
 ``Task.draw_appearance`` (draw the look, write it into the model, place what moved), and the
 compiles counted meanwhile (``MjSpec.compile`` and ``MjModel.from_*`` wrapped to count calls)
@@ -20,6 +21,7 @@ with the model object's identity before and after.
 from __future__ import annotations  # noqa: I001  (maopg must come before mujoco)
 
 import argparse
+import itertools
 import statistics
 import time
 from collections.abc import Callable
@@ -134,24 +136,28 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=200, help="decision points per task")
     parser.add_argument("--size", type=int, default=64, help="frame side (px)")
     parser.add_argument("--episodes", type=int, default=200, help="looks shown per value")
+    parser.add_argument(
+        "--rounds", type=int, default=3, help="times each task's frames are measured afresh"
+    )
     args = parser.parse_args()
     print("### The cost of `env.appearance` (`bench/perf/appearance.py`)\n")
     print(markdown())
     print(
-        f"- {args.steps} decision points per task, uniform-random options, {args.size} px "
-        f"frames; {args.episodes} episodes' looks per value\n"
+        f"- {args.steps} decision points per task in each of {args.rounds} rounds, "
+        f"uniform-random options, {args.size} px frames; {args.episodes} episodes' looks per "
+        "value\n"
     )
     print(
-        "| task | clock | robot-camera frames per value | off (ms, median) | full (ms, median) | "
-        "heldout (ms, median) | full/off | heldout/off |"
+        "| task | round | clock | robot-camera frames per value | off (ms, median) | "
+        "full (ms, median) | heldout (ms, median) | full/off | heldout/off |"
     )
-    print("|---|---|---|---|---|---|---|---|")
-    for task in TASKS:
+    print("|---|---|---|---|---|---|---|---|---|")
+    for task, round_ in itertools.product(TASKS, range(1, args.rounds + 1)):
         measured = frames(task, args.steps, args.size)
         for clock in ("wall", "cpu"):
             t = {level: 1e3 * statistics.median(v[clock]) for level, v in measured.items()}
             print(
-                f"| {task} | {clock} | {len(measured['off'][clock])} | {t['off']:.2f} | "
+                f"| {task} | {round_} | {clock} | {len(measured['off'][clock])} | {t['off']:.2f} | "
                 f"{t['full']:.2f} | {t['heldout']:.2f} | {t['full'] / t['off']:.3f} | "
                 f"{t['heldout'] / t['off']:.3f} |"
             )
