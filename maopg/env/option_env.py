@@ -94,6 +94,7 @@ class OptionEnv:
         seed = _seed(seed, "reset seed")
         self._episode += 1
         self.task.reset(seed)
+        self.task.draw_appearance(seed)
         self._executions = [None] * self.num_agents
         self._idle[:] = False
         self._running[:] = -1

@@ -33,6 +33,8 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from maopg.sim.appearance import add_assets, needs_assets
+from maopg.sim.looks import OFF
 from maopg.sim.robots import ASSETS_DIR, RobotAdapter, RobotSpec, get_robot
 
 WORLD = "world"
@@ -149,10 +151,14 @@ class SceneBuilder:
         timestep: float,
         render_size: int = 64,
         video_size: tuple[int, int] = (480, 640),
+        appearance: str = OFF,
     ) -> None:
         """``arena``: an MJCF file, or a spec made in code (a generated room); the builder
-        adds to the spec it is given."""
+        adds to the spec it is given. ``appearance``: the task's ``env.appearance``, whose looks
+        may need textures, materials and distractors compiled in
+        (:func:`maopg.sim.appearance.add_assets`); ``off`` compiles the scene as it is."""
         self.arena = arena
+        self.appearance = appearance
         self.spec = arena if isinstance(arena, mujoco.MjSpec) else load_spec(arena)
         self.spec.option.timestep = timestep
         # Offscreen buffer large enough for every renderer the scene will be asked for.
@@ -216,6 +222,8 @@ class SceneBuilder:
                 name2=body,
                 active=active,
             )
+        if needs_assets(self.appearance):
+            add_assets(self.spec)
         try:
             model = self.spec.compile()
         except ValueError as exc:

@@ -40,7 +40,9 @@ import mujoco
 import numpy as np
 
 from maopg.options.base import Option, Strategy
+from maopg.sim.appearance import Appearance, Surfaces
 from maopg.sim.channels import RGB, ImageChannels, parse_channels
+from maopg.sim.looks import OFF
 from maopg.sim.mounts import Mount, mount_camera
 from maopg.sim.render import CameraRenderer, depth_range
 from maopg.sim.robots import RobotAdapter, role_of
@@ -124,6 +126,11 @@ class Task(ABC):
             "idle or interrupt an agent (strategies 'all' and 'any')"
         )
 
+    def draw_appearance(self, seed: int) -> None:  # noqa: B027 (optional hook)
+        """Show the episode's look, drawn from ``seed`` (``env.appearance``); the option
+        environment calls it right after :meth:`reset` with the same seed. A task without a
+        scene has none."""
+
     @abstractmethod
     def tick(self) -> float:
         """Advance one tick: physics with the commands given this tick, then the rules.
@@ -200,13 +207,18 @@ class SceneTask(Task):
     """A task whose agents are the robots of one compiled :class:`~maopg.sim.scene.Scene`.
 
     Subclasses set ``self.config``, then ``self.scene``, then ``self.agent_robots`` (adapters
-    in agent order); this class then provides holding, camera observations and cleanup.
+    in agent order); this class then provides holding, camera observations, the looks of
+    ``env.appearance`` and cleanup.
     Setting ``agent_robots`` mounts the robots' cameras as the config's camera settings say
     (``env.camera_fovy``, ``camera_offset``, ``camera_rotation``, per robot role:
     :mod:`maopg.sim.mounts`), so every scene task, a user's included, gets them without code
     of its own; at their defaults the model is left as compiled. The renderer is created on
     first use, so building a task in a parent process never creates a GL context (a
     ``fork``ed child would hang on it, docs/DESIGN.md §2).
+
+    Its scene builder is given ``appearance=config.appearance``, which compiles in what the
+    looks need (:mod:`maopg.sim.appearance`); :attr:`surfaces` names the furniture they may
+    restyle.
     """
 
     scene: Scene
@@ -214,6 +226,10 @@ class SceneTask(Task):
     _agent_robots: tuple[RobotAdapter, ...] = ()
     _mounts: dict[int, Mount] | None = None
     """Each re-mounted camera's mount as compiled."""
+    surfaces: ClassVar[Surfaces] = Surfaces()
+    """The geoms ``env.appearance`` restyles (floors and walls found by their usual names by
+    default; a task adds its furniture, never what its rules or display colour)."""
+    _appearance: Appearance | None = None
 
     prop_classes: ClassVar[Mapping[str, str]] = {}
     """The segmentation classes of the task's props: each prop kind (a prop body's name
@@ -263,6 +279,18 @@ class SceneTask(Task):
             )
         if moved:  # the cameras' world poses now, not at the next step
             mujoco.mj_camlight(model, self.scene.data)
+
+    def draw_appearance(self, seed: int) -> None:
+        appearance = getattr(self.config, "appearance", OFF)
+        if appearance == OFF:
+            return
+        if self._appearance is None:  # after building: the cameras as the task mounted them
+            cameras = [robot.camera_id for robot in self.agent_robots]
+            scene = self.scene
+            self._appearance = Appearance(
+                scene.model, scene.data, tuple(scene.robots), self.surfaces, cameras
+            )
+        self._appearance.show(appearance, seed)
 
     def hold(self, agent: int) -> None:
         self.agent_robots[agent].hold()

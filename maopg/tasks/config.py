@@ -12,6 +12,7 @@ from typing import ClassVar
 
 from maopg.settings import Settings, field_bounds, setting
 from maopg.sim.channels import parse_channels
+from maopg.sim.looks import APPEARANCES, OFF
 from maopg.tasks.camera_settings import CameraMount, role_values, value_for
 
 MAX_IMAGE_SIZE = 4096
@@ -50,6 +51,11 @@ class SceneTaskConfig(TaskConfig):
     """Simulated time of one tick, one low-level step (s)."""
     timestep: float = setting(0.002, gt=0.0)
     """Physics step (s)."""
+    appearance: str = setting(OFF, choices=APPEARANCES)
+    """How the scene looks, drawn per episode from its seed (domain randomisation; physics and
+    rules never change): ``off`` as built; ``light`` colours and light intensities; ``full``
+    textures, lights, camera jitter and distractors too; ``heldout`` a look never drawn in
+    training; ``dusk``, ``neon``, ``glare`` fixed held-out looks (:mod:`maopg.sim.looks`)."""
     camera_channels: str = "rgb"
     """What each camera image holds, any of rgb, depth (metres) and seg (class ids) joined by
     '+' (rgb+depth+seg), stacked in that order. One set for the whole team: every agent's

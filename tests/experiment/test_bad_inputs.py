@@ -56,6 +56,11 @@ BAD_TRAIN = [
     ([*WF, "env.drone_start=[100,0]"], r"env\.drone_start=\(100, 0\) lies outside the arena"),
     (["env.fetch_base=[9,1]"], r"env\.fetch_base=\(9, 1\) lies outside the arena"),
     (["env.max_staged=3"], r"env\.max_staged must be <= 2, got 3"),
+    (
+        ["env.appearance=foggy"],
+        r"env\.appearance must be one of \['off', 'light', 'full', 'heldout', 'dusk', 'neon', "
+        r"'glare'\], got 'foggy'",
+    ),
     (["hidden=0"], r"hidden must be >= 1, got 0"),
     (["layers=0"], r"layers must be >= 1, got 0"),
     (["ppo.num_minibatches=0"], r"ppo\.num_minibatches must be >= 1, got 0"),
@@ -114,6 +119,10 @@ BAD_EVAL = [
     (["table", "results/runs", "--window", "0"], r"--window: must be >= 1"),
     (["evaluate", "--reference", "random", "env.max_ticks=0"], r"env\.max_ticks must be >= 1"),
     (["evaluate", "--reference", "random", "max_ticks=5"], r"takes task settings only, .*env\."),
+    (
+        ["video", "--reference", "random", "env.appearance=sunny", "--out", "x.mp4"],
+        r"env\.appearance must be one of \[.*\], got 'sunny'",
+    ),
     (
         ["evaluate", "--reference", "scripted", "--set", "turtlebot_robot=diffbot"],
         r"--set is retired: .*env\.turtlebot_robot=diffbot",

@@ -465,6 +465,34 @@ def test_video_of_a_checkpoint(trained_run, tmp_path, capsys, monkeypatch, termi
     assert len(a) == len(b) and all(np.array_equal(x, y) for x, y in zip(a, b, strict=True))
 
 
+def test_a_checkpoint_evaluates_and_films_in_other_looks(trained_run, tmp_path, capsys):
+    """Task settings over the run's own where its policy can act (``env.appearance``): a
+    policy from state plays the same episode in every look, which the evaluation records and
+    the film shows; a setting that changes its agents is refused in one line, nothing
+    written."""
+    results, films = {}, {}
+    for look in ("off", "heldout"):
+        path = tmp_path / f"{look}.json"
+        argv = ["evaluate", "--checkpoint", str(trained_run), "--episodes", "1", "--no-progress"]
+        assert main([*argv, "--json", str(path), f"env.appearance={look}"]) == 0
+        results[look] = json.loads(path.read_text())
+        film = tmp_path / f"{look}.mp4"
+        argv = ["video", "--checkpoint", str(trained_run), "--out", str(film), "--no-progress"]
+        assert main([*argv, f"env.appearance={look}", "env.max_ticks=2"]) == 0
+        films[look] = _frames(film)
+    assert results["heldout"]["source"]["env"]["appearance"] == "heldout"
+    assert results["heldout"]["per_episode"] == results["off"]["per_episode"]
+    assert len(films["off"]) == len(films["heldout"])
+    assert not np.array_equal(films["off"][0], films["heldout"][0])
+    capsys.readouterr()
+    out = tmp_path / "refused.json"
+    argv = ["evaluate", "--checkpoint", str(trained_run), "--json", str(out), "env.turtlebots=3"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "env.turtlebots=3: the checkpoint's policy cannot act" in err
+    assert not out.exists()
+
+
 def test_timeline_of_a_checkpoint(trained_run, tmp_path, capsys, monkeypatch):
     out = tmp_path / "plots" / "trained.svg"
     titles = []

@@ -188,6 +188,7 @@ def test_every_method_trains_a_tiny_budget(tmp_path, task, method):
         ("async-rnn", 480, ["ppo.option_history=true", "ppo.memory_norm=true"]),
         ("acac", 600, ["env.max_ticks=40"]),
         ("mac-iaicc", 600, ["env.max_ticks=40"]),
+        ("async", 360, ["--images", "env.appearance=full", "env.max_ticks=40"]),
     ],
 )
 def test_kill_and_resume_reproduces_the_uninterrupted_run(tmp_path, capsys, method, samples, extra):
@@ -195,7 +196,8 @@ def test_kill_and_resume_reproduces_the_uninterrupted_run(tmp_path, capsys, meth
     iterations; GRUs that read the option history) included: their states are in the
     checkpoint. A recurrent run without ``ppo.memory_norm`` is told at its start. The
     evaluation during training (``eval_every``) is in the curve: its rows up to the
-    checkpoint survive the kill and the resumed run evaluates where the reference did."""
+    checkpoint survive the kill and the resumed run evaluates where the reference did. A run
+    from images in randomised looks (``env.appearance=full``) replays each episode's look."""
     common = ["--seed", "5", "--total-samples", str(samples), *tiny(method), *extra]
     reference = tmp_path / "reference"
     main([*common, "--run-dir", str(reference)])

@@ -6,6 +6,7 @@ python -m eval evaluate --checkpoint runs/tool_delivery/async/seed0 --episodes 2
 python -m eval evaluate --reference scripted --task tool_delivery --episodes 10
 python -m eval evaluate --reference scripted --task tool_delivery env.turtlebot_robot=diffbot
 python -m eval video --checkpoint runs/tool_delivery/async/seed0 --out out/td_async.mp4
+python -m eval evaluate --checkpoint runs/tool_delivery/async/seed0 env.appearance=heldout
 python -m eval timeline --checkpoint runs/tool_delivery/async/seed0 --out out/td_async.png
 python -m eval plot runs/ --out out/plots
 python -m eval plot runs/ --reference-episodes 0     # no scripted / random reference lines
@@ -16,7 +17,8 @@ python -m eval reproduce --tasks tool_delivery ppo.epochs=5 --config grid.yaml
 
 Settings are written as on the train command line: ``key=value`` arguments (task settings
 ``env.KEY=VALUE``) anywhere on the line; ``--set`` of earlier releases is refused with the new
-spelling.
+spelling. A checkpoint's environment is its run's, with the task settings given on top where
+its policy can still act (``env.appearance=heldout``: looks it never trained on).
 """
 
 from __future__ import annotations
@@ -64,7 +66,8 @@ def _policy_args(parser: argparse.ArgumentParser) -> None:
     _settings_args(
         parser,
         "env.KEY=VALUE",
-        "task settings of a reference policy's environment, e.g. env.turtlebot_robot=diffbot",
+        "task settings of the environment: a reference policy's (env.turtlebot_robot=diffbot), "
+        "or over a checkpoint's run where its policy can act (env.appearance=heldout)",
     )
     parser.add_argument("--seed", type=at_least(0), default=0)
     acting = parser.add_mutually_exclusive_group()
@@ -171,14 +174,13 @@ def _policy_and_env(args: argparse.Namespace):
         from maopg.experiment.evaluation.loading import load_trained
 
         given = [f"--{k}" for k in ("task", "strategy") if getattr(args, k)]
-        given += ["env.KEY=VALUE"] if settings else []
         if given:
             raise ValueError(
                 f"{', '.join(given)}: a checkpoint brings its own task and strategy "
                 "(they apply to --reference policies only)"
             )
         trained = load_trained(args.checkpoint, device=args.device)
-        env = trained.make_env(args.seed)
+        env = trained.make_env(args.seed, settings)
         policy = trained.actor(greedy=not args.sample, seed=args.seed)
         c = trained.config
         label = f"{c.method} seed{c.seed} @ {trained.samples} samples"

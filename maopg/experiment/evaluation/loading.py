@@ -9,8 +9,10 @@ acts — so nothing needs to be given twice, and a user's method loads like a bu
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from torch import nn
 
@@ -40,9 +42,25 @@ class Trained:
     spec: EnvSpec
     """The spec of the environment it was trained on (agents, options, observation sizes)."""
 
-    def make_env(self, seed: int = 0) -> OptionEnv:
-        """The environment the policy was trained on (task, strategy, observations)."""
-        return self.config.env().make(seed)
+    def make_env(self, seed: int = 0, overrides: Mapping[str, Any] | None = None) -> OptionEnv:
+        """The environment the policy was trained on (task, strategy, observations), with the
+        task settings ``overrides`` over the run's own (``{"appearance": "heldout"}``: the same
+        task seen in looks it never trained on). Settings that change what the policy reads or
+        chooses from (its agents, their options, their observations) are refused, naming them:
+        its network could not act there."""
+        config = self.config.env()
+        if overrides:
+            config = dataclasses.replace(config, overrides={**config.overrides, **overrides})
+        env = config.make(seed)
+        if overrides and _acting_shape(env.spec) != _acting_shape(self.spec):
+            env.close()
+            given = ", ".join(f"env.{key}={value}" for key, value in overrides.items())
+            raise ValueError(
+                f"{given}: the checkpoint's policy cannot act there (its agents, their options "
+                "or their observations change); a checkpoint takes task settings that keep "
+                "them, such as env.appearance or env.max_ticks"
+            )
+        return env
 
     def actor(self, *, greedy: bool = GREEDY_BY_DEFAULT, seed: int = 0) -> Actor:
         """The trained policy as ``DecisionPoint -> joint option``: the mode (greedy, the
@@ -57,6 +75,13 @@ class Trained:
         (``async seed 2 (sampled)``, ``mac-dqn seed 0 (ε-greedy)``)."""
         mode = "greedy" if greedy else self.method.learner_class.sampled_name
         return f"{self.config.method} seed {self.config.seed} ({mode})"
+
+
+def _acting_shape(spec: EnvSpec) -> tuple[object, ...]:
+    """What of an environment a policy's network is built for: each agent's options and
+    observation layout, and the images' shape."""
+    agents = tuple((a.name, a.option_names, a.layout) for a in spec.agents)
+    return agents, spec.image_shape
 
 
 def resolve_checkpoint(path: str | Path) -> Path:

@@ -187,7 +187,10 @@ def arena_spec(config: Config, arena: Arena) -> mujoco.MjSpec:
 def build_scene(config: Config, arena: Arena) -> Scene:
     """Compile the arena with the robots at their starts, colliding with each other."""
     builder = SceneBuilder(
-        arena_spec(config, arena), timestep=config.timestep, render_size=config.image_size
+        arena_spec(config, arena),
+        timestep=config.timestep,
+        render_size=config.image_size,
+        appearance=config.appearance,
     )
     robot = get_robot(config.turtlebot_robot)
     root = robot.adapter_class().root_body

@@ -91,7 +91,12 @@ def build_scene(config: Config, turtlebot_starts: Sequence[tuple[float, float]] 
     floor.require_inside("env.fetch_base", config.fetch_base)
     for w, spot in enumerate(config.desk_spots):
         floor.require_inside(f"env.desk_spots[{w}]", spot)
-    builder = SceneBuilder(ARENA, timestep=config.timestep, render_size=config.image_size)
+    builder = SceneBuilder(
+        ARENA,
+        timestep=config.timestep,
+        render_size=config.image_size,
+        appearance=config.appearance,
+    )
     if not team.canonical_arena:
         grow_arena(builder, team)
     turtlebots, fetches = team.agents[: team.turtlebots], team.agents[team.turtlebots :]

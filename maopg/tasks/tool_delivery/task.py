@@ -31,6 +31,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from maopg.options.base import Option
+from maopg.sim.appearance import Surfaces
 from maopg.tasks.base import SceneTask
 from maopg.tasks.layout import ObsLayout
 from maopg.tasks.tool_delivery.config import Config
@@ -119,6 +120,9 @@ class ToolDelivery(SceneTask):
     }
     """Segmentation: the tool room's desk and shelves, the humans (their bench and stage
     panel too), the tools."""
+    surfaces = Surfaces(props=("desk*/cabinet", "desk*/top", "shelf*/*", "human*/bench*"))
+    """The furniture: desks, shelves (the tools on them keep their colours: an agent tells them
+    apart by them) and the humans' workbenches (the stage panel shows the rules' state)."""
 
     def __init__(self, config: Config | None = None) -> None:
         self.config = config = config or Config()

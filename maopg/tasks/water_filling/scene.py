@@ -111,7 +111,10 @@ def _planar(site: np.ndarray) -> tuple[float, float]:
 def build_scene(config: Config, arena: Arena) -> Scene:
     """Compile the room with the jars on their stands and every robot at its start."""
     builder = SceneBuilder(
-        arena_source(config, arena.tiles), timestep=config.timestep, render_size=config.image_size
+        arena_source(config, arena.tiles),
+        timestep=config.timestep,
+        render_size=config.image_size,
+        appearance=config.appearance,
     )
     for c, site in enumerate(arena.jar_sites):
         builder.add_prop(f"jar{c}", JAR_PROP, site)

@@ -48,6 +48,7 @@ import mujoco
 import numpy as np
 
 from maopg.options.base import Option
+from maopg.sim.appearance import Surfaces
 from maopg.sim.planning import GoalFieldPlanner, Route, occupancy_grid
 from maopg.sim.props import JarHandle
 from maopg.sim.robots.base import wrap_angle
@@ -77,6 +78,20 @@ class WaterFilling(SceneTask):
         ),
     }
     """Segmentation: the jars (stand, glass and water) and the room's furniture."""
+    surfaces = Surfaces(
+        props=(
+            "*bookshelf",
+            "*sofa_*",
+            "*coffee_table_*",
+            "*armchair_*",
+            "*tv_cabinet",
+            "*tv",
+            "*plant_*",
+            "jar*/stand*",
+        )
+    )
+    """The living room's furniture and the jars' stands (the jars and their water keep their
+    colours: the water level is what the agents watch)."""
 
     def __init__(self, config: Config | None = None) -> None:
         self.config = config = config or Config()

@@ -1,0 +1,218 @@
+"""``env.appearance`` on the built-in scene tasks: ``off`` is the scene as it was, a look
+follows the episode seed and goes through the model's arrays only, the physics never sees it,
+and the held-out looks are never training looks."""
+
+from __future__ import annotations  # noqa: I001  (maopg must come before mujoco)
+
+import hashlib
+import itertools
+
+import maopg  # noqa: F401  (sets MUJOCO_GL=egl before mujoco is imported)
+import mujoco
+import numpy as np
+import pytest
+
+from maopg.env import make_env
+from maopg.env.rollout import run_episode, scripted_policy
+from maopg.sim.appearance import CLEARANCE, DISTRACTOR, Appearance, Surfaces
+from maopg.sim.egl_check import gl_strings
+from maopg.sim.look_draws import (
+    COLOUR_JITTER,
+    HELDOUT_PALETTE,
+    HELDOUT_SCALES,
+    HELDOUT_TEXTURES,
+    LOOK_SETS,
+    ROLES,
+    TRAINING_PALETTE,
+    TRAINING_SCALES,
+    TRAINING_TEXTURES,
+    Layout,
+    draw,
+)
+from maopg.sim.looks import APPEARANCES, HELDOUT, OFF, PRESETS, TRAINING
+from maopg.tasks import make_config, task_class
+
+TASKS = ("tool_delivery", "water_filling", "box_pushing")
+
+BEFORE = {
+    "tool_delivery": (
+        "5ffb0b7f10c238e8a895e189d2b2365e5cff88fe9acb049ec266d2885fbd8e73",
+        "85a0a67d1ef29d567951adc73a189bb7a7d02d2a5e9fe690c9cc8d7a31942fea",
+    ),
+    "water_filling": (
+        "60c072b185107ec04b10a9614e646b8502d652eb9fa09b598fbc5d58c893e462",
+        "1054066a7e9f4c6ae3fedbdd41d61901cd8d10a396f52b58b859c196e5ee5b78",
+    ),
+    "box_pushing": (
+        "b2f6d6b40091f365e11fb1f385dd4e963318aa0aa0bbdceb759a9ee4281e02b5",
+        "30348cd9564d0a1ae3a80933eb80cab5e0a352b6401c2d9a9931a6dd63378699",
+    ),
+}
+"""Each task's compiled model (``mj_saveModel``'s bytes) and the first observation images of
+the episode with seed 0 (64 px) as SHA-256, taken before ``env.appearance`` existed."""
+RECORDED_ON = "llvmpipe (LLVM 15.0.6, 256 bits)"
+"""The GL renderer the images were recorded on; another rasteriser draws other pixels."""
+
+LOOK_ARRAYS = (
+    "geom_rgba",
+    "geom_matid",
+    "light_pos",
+    "light_dir",
+    "light_diffuse",
+    "light_ambient",
+    "light_specular",
+    "cam_pos",
+    "cam_quat",
+    "body_pos",
+    "body_quat",
+)
+"""The model arrays a look writes."""
+
+
+def _model_digest(model: mujoco.MjModel) -> str:
+    buffer = np.zeros(mujoco.mj_sizeModel(model), np.uint8)
+    mujoco.mj_saveModel(model, None, buffer)
+    return hashlib.sha256(buffer.tobytes()).hexdigest()
+
+
+@pytest.mark.parametrize("task", TASKS)
+def test_off_and_light_compile_the_model_of_before_and_off_draws_its_images(task):
+    env = make_env(task, seed=0, images=True, image_size=64)
+    try:
+        images = env.reset(seed=0).images
+        assert _model_digest(env.task.scene.model) == BEFORE[task][0]
+        if gl_strings()[1] == RECORDED_ON:
+            assert hashlib.sha256(images.tobytes()).hexdigest() == BEFORE[task][1]
+    finally:
+        env.close()
+    light = task_class(task)(make_config(task, {"appearance": "light"}))
+    assert _model_digest(light.scene.model) == BEFORE[task][0]
+
+
+def _look_state(env) -> dict[str, np.ndarray]:
+    model = env.task.scene.model
+    state = {name: getattr(model, name).copy() for name in LOOK_ARRAYS}
+    state["headlight"] = np.array(model.vis.headlight.diffuse)
+    return state
+
+
+@pytest.mark.parametrize("task", TASKS)
+def test_a_look_follows_the_episode_seed_through_the_models_arrays(task, monkeypatch):
+    """Same seed, same look and images (in another environment, after another episode's
+    look); another seed, another look; and no compile while looks change."""
+    one, two = (
+        make_env(task, seed=0, images=True, image_size=32, overrides={"appearance": "full"})
+        for _ in range(2)
+    )
+    try:
+        first = one.reset(seed=5)
+        look = _look_state(one)
+        model = two.task.scene.model
+        compiles = []
+        monkeypatch.setattr(mujoco.MjSpec, "compile", lambda *a: compiles.append(a))
+        other = two.reset(seed=6).images.copy()
+        again = two.reset(seed=5)
+        assert two.task.scene.model is model and not compiles
+    finally:
+        one.close()
+        two.close()
+    assert np.array_equal(first.images, again.images)
+    assert all(np.array_equal(v, _look_state(two)[k]) for k, v in look.items())
+    assert not np.array_equal(first.images, other)
+
+
+@pytest.mark.parametrize("task", TASKS)
+def test_the_scripted_trajectory_is_the_same_in_every_look(task):
+    """Every tick's physical state and reward, with the looks off and on."""
+
+    def played(appearance: str) -> list[tuple[float, bytes, bytes]]:
+        env = make_env(task, seed=0, overrides={"appearance": appearance})
+        ticks = []
+        data = env.task.scene.data
+        env.add_tick_listener(
+            lambda _, reward: ticks.append((reward, data.qpos.tobytes(), data.qvel.tobytes()))
+        )
+        try:
+            run_episode(env, scripted_policy(env), seed=3)
+        finally:
+            env.close()
+        return ticks
+
+    off = played(OFF)
+    assert len(off) > 10 and played("full") == off
+
+
+def test_distractors_stand_by_the_walls_and_touch_nothing():
+    env = make_env("tool_delivery", seed=0, overrides={"appearance": "full"})
+    try:
+        env.reset(seed=1)
+        model, data = env.task.scene.model, env.task.scene.data
+        bodies = [b for b in range(model.nbody) if model.body(b).name.startswith(DISTRACTOR)]
+        assert len(bodies) == 4
+        for body in bodies:
+            assert model.body_jntnum[body] == 0 and model.body_parentid[body] == 0
+            geom = model.body_geomadr[body]
+            assert (model.geom_contype[geom], model.geom_conaffinity[geom]) == (0, 0)
+        sites = data.site_xpos[:, :2]
+        shown = 0
+        for seed in range(12):
+            env.reset(seed=seed)
+            for body in bodies:
+                if model.geom_rgba[model.body_geomadr[body], 3] > 0:
+                    shown += 1
+                    gap = np.linalg.norm(sites - data.xpos[body, :2], axis=1).min()
+                    assert gap >= CLEARANCE
+        assert shown > 0
+    finally:
+        env.close()
+
+
+def test_a_scene_built_without_the_looks_assets_is_told_how_to_build_it():
+    """A user's scene task whose builder was not given ``appearance=`` (``light`` needs
+    nothing compiled in; ``full`` does)."""
+    task = task_class("box_pushing")(make_config("box_pushing"))
+    scene, cameras = task.scene, [r.camera_id for r in task.agent_robots]
+    appearance = Appearance(scene.model, scene.data, tuple(scene.robots), Surfaces(), cameras)
+    appearance.show("light", 0)
+    with pytest.raises(ValueError, match=r"appearance=config\.appearance"):
+        appearance.show("full", 0)
+
+
+def _near(rgb, palette) -> bool:
+    return any(np.abs(np.subtract(rgb, c)).max() <= COLOUR_JITTER + 1e-9 for c in palette)
+
+
+def test_held_out_looks_are_never_training_looks():
+    """By construction (:mod:`maopg.sim.look_draws`): the palettes are farther apart than
+    twice the jitter, the textures and scales differ, the light intensities and casts lie
+    outside the training ranges; and so are the looks drawn."""
+    assert set(APPEARANCES) == {*TRAINING, HELDOUT, *PRESETS} and set(LOOK_SETS) == {
+        *APPEARANCES
+    } - {OFF}
+    for train, held in itertools.product(TRAINING_PALETTE, HELDOUT_PALETTE):
+        assert np.abs(np.subtract(train, held)).max() > 2 * COLOUR_JITTER
+    assert not {t.name for t in TRAINING_TEXTURES} & {t.name for t in HELDOUT_TEXTURES}
+    for role in ROLES:
+        assert not set(TRAINING_SCALES[role]) & set(HELDOUT_SCALES[role])
+    train_scale = [
+        interval for name in ("light", "full") for interval in LOOK_SETS[name].lights.scale
+    ]
+    low, high = min(a for a, _ in train_scale), max(b for _, b in train_scale)
+    max_tint = max(LOOK_SETS[name].lights.tint[1] for name in ("light", "full"))
+    layout = Layout(roles=ROLES, lights=3, cameras=2, spots=20, distractors=4)
+    for name, seed in itertools.product(("light", "full", HELDOUT, *PRESETS), range(60)):
+        look = draw(name, seed, layout)
+        held_out = name not in TRAINING
+        colours = [f.rgb for f in look.finishes] + [p.rgb for p in look.distractors if p]
+        palette = HELDOUT_PALETTE if held_out else TRAINING_PALETTE
+        assert all(_near(rgb, palette) for rgb in colours), name
+        textures = {f.texture for f in look.finishes} - {None}
+        allowed = HELDOUT_TEXTURES if held_out else TRAINING_TEXTURES
+        assert textures <= {t.name for t in allowed}
+        inside = low <= look.light_scale <= high
+        assert inside != held_out, (name, look.light_scale)
+        tinted = max(abs(t - 1.0) for t in look.tint) > max_tint
+        assert tinted == held_out, (name, look.tint)
+    for preset in PRESETS:  # a preset is one look
+        assert draw(preset, 1, layout) == draw(preset, 2, layout)
+    assert draw(HELDOUT, 1, layout) != draw(HELDOUT, 2, layout)
