@@ -242,6 +242,34 @@ class GroundAdapter(RobotAdapter):
         pos = self.data.xpos[self.root_body_id]
         return math.hypot(pos[0] - xy[0], pos[1] - xy[1]) <= tol
 
+    @property
+    def footprint_radius(self) -> float:
+        """The robot's radius for path planning (m): its constants' ``radius`` where they give
+        one (a measured footprint), else the farthest its colliding geoms reach horizontally
+        from the root body's origin, each geom bounded by its bounding sphere — generous, and
+        known for any robot a user brings."""
+        given = getattr(self.constants, "radius", None)
+        if given is not None:
+            return float(given)
+        model, data = self.model, self.data
+        mujoco.mj_kinematics(model, data)
+        centre = data.xpos[self.root_body_id, :2]
+        reach = 0.0
+        for g in range(model.ngeom):
+            body = int(model.geom_bodyid[g])
+            if model.body_rootid[body] != self.root_body_id:
+                continue
+            if not (model.geom_contype[g] or model.geom_conaffinity[g]):
+                continue
+            offset = math.dist(data.geom_xpos[g, :2], centre)
+            reach = max(reach, offset + float(model.geom_rbound[g]))
+        if reach == 0.0:
+            raise ValueError(
+                f"{type(self).__name__} for '{self.prefix}': no colliding geom to measure a "
+                "footprint from; give its constants a radius"
+            )
+        return reach
+
 
 class DroneAdapter(RobotAdapter):
     """A flying robot commanded by 3-D position targets and a heading.

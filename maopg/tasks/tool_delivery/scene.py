@@ -16,8 +16,8 @@ import numpy as np
 
 from maopg.sim.assets import ASSETS_DIR
 from maopg.sim.props import arena_floor
-from maopg.sim.robots import get_robot
-from maopg.sim.scene import Scene, SceneBuilder
+from maopg.sim.robots import get_robot, robots_of_role
+from maopg.sim.scene import Scene, SceneBuilder, load_spec
 from maopg.tasks.tool_delivery.config import Config
 from maopg.tasks.tool_delivery.constants import BASKET, NUM_TOOLS, TOOL
 from maopg.tasks.tool_delivery.team import (
@@ -83,10 +83,31 @@ def grow_arena(builder: SceneBuilder, team: Team) -> None:
             builder.add_prop(f"tool{team.tool(h, j)}", PROPS / TOOL_FILES[j], slot, yaw)
 
 
+def _lacks_a_basket(robot: str) -> list[str]:
+    """What of a tool carrier's parts the robot's MJCF lacks: the ``basket`` body tools are
+    welded to and the ``load`` site a Fetch puts them down at."""
+    spec = load_spec(get_robot(robot).mjcf)
+    parts = {"a 'basket' body": spec.body("basket"), "a 'load' site": spec.site("load")}
+    return [part for part, found in parts.items() if found is None]
+
+
+def require_carrier(robot: str) -> None:
+    """Refuse, in one line before anything is compiled, a Turtlebot seat's robot that cannot
+    carry tools, naming the ground robots that can."""
+    missing = _lacks_a_basket(robot)
+    if missing:
+        able = [r for r in robots_of_role("ground") if not _lacks_a_basket(r)]
+        raise ValueError(
+            f"env.turtlebot_robot: {robot!r} has no {' and no '.join(m[2:] for m in missing)}"
+            f" (a Turtlebot seat carries tools in its basket); robots that can: {', '.join(able)}"
+        )
+
+
 def build_scene(config: Config, turtlebot_starts: Sequence[tuple[float, float]] = ()) -> Scene:
     """Compile the scene (Turtlebots at the team's starts unless given); each tool may rest in
     the world, in any Fetch's gripper or in any Turtlebot's basket."""
     team = Team.of(config)
+    require_carrier(config.turtlebot_robot)
     floor = arena_floor(ARENA)  # the settings place bay 0's arm and desk spots
     floor.require_inside("env.fetch_base", config.fetch_base)
     for w, spot in enumerate(config.desk_spots):

@@ -117,7 +117,7 @@ class WaterFilling(SceneTask):
         # One planner per kind, shared by its robots (same robot, same grid, same fields).
         ground = GoalFieldPlanner(
             occupancy_grid(
-                model, radius=self.vehicle.constants.radius, resolution=res, z_band=GROUND_BAND
+                model, radius=self.vehicle.footprint_radius, resolution=res, z_band=GROUND_BAND
             )
         )
         band = (z - 0.2, z + 0.2)
