@@ -85,6 +85,21 @@ def test_async_beats_the_random_team_on_the_box_pushing_grid(tmp_path):
     assert trained_mean > float(np.mean(random)) + 8, (trained_mean, np.mean(random))
 
 
+def _evaluations(tmp_path, **settings) -> list[float]:
+    """Train a run of ``settings`` (no video, plot or final evaluation) and return its
+    evaluations during training."""
+    config = TrainConfig(
+        progress=False,
+        video=False,
+        eval_episodes=0,
+        plot=False,
+        run_dir=str(tmp_path / "run"),
+        **settings,
+    )
+    rows = read_metrics(train(config) / "metrics.csv")
+    return [float(r["eval_return"]) for r in rows if r["eval_return"] != "nan"]
+
+
 GRID_LEARNERS = {
     "acac": (ACACConfig(explore_decay=2_000), 10.0),
     "mac-iaicc": (MacIAICCConfig(explore_decay=500, episodes_per_update=8), 5.0),
@@ -111,23 +126,17 @@ def test_the_literature_methods_beat_the_random_team_on_the_box_pushing_grid(tmp
         r.ret
         for r in evaluate_reference("box_pushing_grid", "random", 200, 0, "continue", settings)
     ]
-    config = TrainConfig(
+    evaluated = _evaluations(
+        tmp_path,
         task="box_pushing_grid",
         method=method,
         seed=0,
         total_samples=20_000,
-        progress=False,
-        video=False,
-        eval_episodes=0,
-        plot=False,
         eval_every=5_000,
         eval_during_episodes=20,
         env_overrides=settings,
-        run_dir=str(tmp_path / "run"),
         learner=learner,
     )
-    rows = read_metrics(train(config) / "metrics.csv")
-    evaluated = [float(r["eval_return"]) for r in rows if r["eval_return"] != "nan"]
     assert evaluated[-1] > float(np.mean(random)) + margin, (evaluated, np.mean(random))
 
 
@@ -155,20 +164,14 @@ def test_the_literature_methods_beat_the_random_team_on_tool_delivery(tmp_path, 
     )
     settings = {k.split(".", 1)[1]: v for k, v in FEW_EPISODES[method].items()}
     learner = ACACConfig(**settings) if method == "acac" else MacIAICCConfig(**settings)
-    config = TrainConfig(
+    evaluated = _evaluations(
+        tmp_path,
         task="tool_delivery",
         method=method,
         seed=seed,
         total_samples=budget,
-        progress=False,
-        video=False,
-        eval_episodes=0,
-        plot=False,
         eval_every=10_000,
         eval_during_episodes=10,
-        run_dir=str(tmp_path / "run"),
         learner=learner,
     )
-    rows = read_metrics(train(config) / "metrics.csv")
-    evaluated = [float(r["eval_return"]) for r in rows if r["eval_return"] != "nan"]
     assert evaluated[-1] > random_mean + margin, (evaluated, random_mean)
