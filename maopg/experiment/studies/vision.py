@@ -26,7 +26,8 @@ in ``heldout`` looks (palettes, textures and lights no training look draws,
 :mod:`maopg.sim.look_draws`), :func:`~maopg.experiment.evaluation.evaluate.evaluate` on reset
 seeds 0, 1, ...: the same episodes for every run and look (under ``full`` and ``heldout`` each
 seed draws a look of its own), none of them a training episode's (a training reset seed is a
-32-bit hash, :func:`maopg.env.vector_base.episode_seed`). It acts both ways: greedy, the
+32-bit hash, :func:`maopg.env.vector_base.episode_seed`; ``tests/experiment/test_vision_study.py``
+checks the study's runs). It acts both ways: greedy, the
 project's default (:data:`~maopg.experiment.evaluation.GREEDY_BY_DEFAULT`), and sampled, as it
 trained — Water Filling's feed-forward greedy policies loop (results/README.md, Water Filling
 finding 6), where a greedy score near 0 in every look would make the targets' ratios noise;
@@ -87,7 +88,8 @@ SEEDS = (0, 1, 2)
 BUDGETS: Mapping[str, int] = frozen({"tool_delivery": 100_000, "water_filling": 200_000})
 """Each task's samples: its default budget, the paper grid's."""
 PILOT_TASK = "tool_delivery"
-"""The pilots' task: the cheaper one, where ``async`` learns in every seed of the paper's grid."""
+"""The pilots' task: the cheaper one (half the samples, and a run takes 13–17 minutes against
+Water Filling's 23: the cost below)."""
 OFF_VARIANT, FULL_VARIANT = "off", "full"
 """The variants the targets compare."""
 EPISODES = 20
@@ -156,7 +158,7 @@ LOOK_SETTINGS = ("appearance", "camera_channels")
 neither of which the reference policies (acting from state) nor the physics see."""
 
 
-def physics(variants: Sequence[Variant], task: str) -> StudyTask:
+def reference_task(variants: Sequence[Variant], task: str) -> StudyTask:
     """``task`` at the settings every variant trains it at but the looks: where its reference
     policies are measured, once for every variant. ``ValueError`` if the variants' other
     settings differ (their scores would then need levels of their own)."""
@@ -411,7 +413,7 @@ def reproduce_vision(
     runs = [r for name in found for r in found[name]]
     levels = {
         task: reference_levels(
-            physics(variants, task), out / "references" / f"{task}.json", reference_episodes
+            reference_task(variants, task), out / "references" / f"{task}.json", reference_episodes
         )
         for task in known
         if any(r.task == task for r in runs)
