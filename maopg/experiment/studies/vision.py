@@ -324,7 +324,7 @@ def _drop(own: float, held: float) -> str:
     """How far the held-out score falls below the in-distribution one."""
     if math.isnan(own) or math.isnan(held):
         return "— (not run yet)"
-    share = f"; {held / own:.0%} of it" if own > 0 else ""
+    share = f"; keeps {held / own:.0%}" if own > 0 else ""
     return f"{held - own:+.2f} ({own:.2f} → {held:.2f}{share})"
 
 
