@@ -14,7 +14,8 @@ PY=.venv/bin/python
   echo "sections that read the memory study's pilots or first runs (\`results/memory/pilots/\`,"
   echo "\`results/memory/unnormalised/\`) need their weights restored from the history first"
   echo "(results/memory/README.md, \"Weights\")."
-  for script in perf/sim_bench perf/culling perf/camera_channels perf/appearance perf/video_speed \
+  for script in perf/sim_bench perf/culling perf/camera_channels perf/appearance perf/vision_cost \
+    perf/video_speed \
     perf/td_bench perf/td_teams \
     perf/policy_scaling perf/compare_checkouts perf/startup perf/backends perf/scale_out \
     perf/wf_bench perf/box_pushing_bench perf/wf_teams perf/cost_to_go perf/lockstep \

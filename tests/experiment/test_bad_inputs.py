@@ -140,6 +140,18 @@ BAD_EVAL = [
         ["reproduce", "--study", "leaderboard", "--dry-run", "--seeds", "1"],
         r"--runs does not apply to --study leaderboard .*allowed: --results, --methods",
     ),
+    (
+        ["reproduce", "--study", "vision", "--dry-run", "--methods", "async"],
+        r"--methods does not apply to --study vision .*allowed: --results, --runs, --tasks",
+    ),
+    (
+        ["reproduce", "--study", "vision", "--dry-run", "env.appearance=full"],
+        r"key=value does not apply to --study vision \(its variants fix",
+    ),
+    (
+        ["reproduce", "--study", "vision", "--dry-run", "--tasks", "box_pushing"],
+        r"task\(s\) \['box_pushing'\] not in study 'vision'; choose from \['tool_delivery'",
+    ),
 ]
 
 

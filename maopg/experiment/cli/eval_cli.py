@@ -14,6 +14,7 @@ python -m eval table runs/ --threshold tool_delivery=200
 python -m eval check-robot --robot drone --role drone
 python -m eval reproduce              # the committed grid: results/runs → results/
 python -m eval reproduce --tasks tool_delivery ppo.epochs=5 --config grid.yaml
+python -m eval reproduce --study vision --dry-run   # see --list-studies
 
 Settings are written as on the train command line: ``key=value`` arguments (task settings
 ``env.KEY=VALUE``) anywhere on the line; ``--set`` of earlier releases is refused with the new
@@ -102,6 +103,8 @@ def _progress_arg(parser: argparse.ArgumentParser, over: str) -> None:
     )
 
 
+EVAL_EPISODES = 10
+"""``eval reproduce``'s episodes per trained policy in a study's ``evaluation.md``."""
 REFERENCE_EPISODES = 10
 """``eval plot``'s episodes per reference policy: a level to read the curves against, in a few
 seconds per task (``eval reproduce`` measures its tables' with 100)."""
@@ -366,7 +369,14 @@ def cmd_table(args: argparse.Namespace) -> int:
 
 
 def cmd_reproduce(args: argparse.Namespace) -> int:
-    from maopg.experiment.studies import LEADERBOARD, LEADERBOARD_ABOUT, get_study, study_names
+    from maopg.experiment.studies import (
+        LEADERBOARD,
+        LEADERBOARD_ABOUT,
+        VISION,
+        VISION_ABOUT,
+        get_study,
+        study_names,
+    )
     from maopg.experiment.studies.results import reproduce
 
     _retired_set(args, "")
@@ -376,9 +386,12 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
             tasks = ", ".join(f"{t.task} ({len(t.seeds)} seeds)" for t in study.tasks)
             print(f"{name}: {study.about}\n  tasks: {tasks}\n  methods: {' '.join(study.methods)}")
         print(f"{LEADERBOARD}: {LEADERBOARD_ABOUT}")
+        print(f"{VISION}: {VISION_ABOUT}")
         return 0
     if args.study == LEADERBOARD:
         return _reproduce_leaderboard(args)
+    if args.study == VISION:
+        return _reproduce_vision(args)
     study = get_study(args.study)
     outcomes, written = reproduce(
         args.runs or study.runs_dir(),
@@ -387,7 +400,7 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
         thresholds=_thresholds(args.threshold),
         window=args.window,
         train=not args.no_train,
-        eval_episodes=args.eval_episodes,
+        eval_episodes=EVAL_EPISODES if args.eval_episodes is None else args.eval_episodes,
         reference_episodes=args.reference_episodes,
         tasks=args.tasks,
         methods=args.methods,
@@ -401,32 +414,74 @@ def cmd_reproduce(args: argparse.Namespace) -> int:
     return _report(outcomes, written)
 
 
+def _refuse_options(
+    args: argparse.Namespace, study: str, refused: Sequence[str], why: str, allowed: str
+) -> None:
+    """One line for the first of ``refused`` (option names) given to ``--study study``, which
+    keeps what they change fixed (``why``), naming the options it takes (``allowed``)."""
+    given = {
+        "--runs": args.runs,
+        "--tasks": args.tasks,
+        "--methods": args.methods,
+        "--seeds": args.seeds,
+        "--config": args.config,
+        "--threshold": args.threshold,
+        "key=value": args.settings,
+    }
+    for name in refused:
+        if given[name]:
+            raise ValueError(
+                f"{name} does not apply to --study {study} ({why}); allowed: {allowed}"
+            )
+
+
 def _reproduce_leaderboard(args: argparse.Namespace) -> int:
     """``reproduce --study leaderboard``: its boards keep their studies' tasks, seeds and
     settings, so the options that change those are refused."""
     from maopg.experiment.studies import LEADERBOARD
     from maopg.experiment.studies.leaderboard import reproduce_leaderboard
 
-    fixed = {
-        "--runs": args.runs,
-        "--tasks": args.tasks,
-        "--seeds": args.seeds,
-        "--config": args.config,
-        "--threshold": args.threshold,
-        "key=value": args.settings,
-    }
-    given = [name for name, value in fixed.items() if value]
-    if given:
-        raise ValueError(
-            f"{given[0]} does not apply to --study leaderboard (its boards keep their studies' "
-            "runs, tasks, seeds and settings); allowed: --results, --methods, --jobs, "
-            "--in-process, --dry-run, --no-train, --reference-episodes"
-        )
+    _refuse_options(
+        args,
+        LEADERBOARD,
+        ("--runs", "--tasks", "--seeds", "--config", "--threshold", "key=value"),
+        "its boards keep their studies' runs, tasks, seeds and settings",
+        "--results, --methods, --jobs, --in-process, --dry-run, --no-train, --reference-episodes",
+    )
     outcomes, written = reproduce_leaderboard(
         args.results or Path("results", LEADERBOARD),
         methods=args.methods,
         train=not args.no_train,
         reference_episodes=args.reference_episodes,
+        in_process=args.in_process,
+        jobs=args.jobs,
+        dry_run=args.dry_run,
+    )
+    return _report(outcomes, written)
+
+
+def _reproduce_vision(args: argparse.Namespace) -> int:
+    """``reproduce --study vision``: its variants fix the method, the seeds and the settings;
+    ``--tasks`` trains a subset first, ``--eval-episodes`` sets each evaluation's episodes."""
+    from maopg.experiment.studies import VISION
+    from maopg.experiment.studies.vision import EPISODES, reproduce_vision
+
+    _refuse_options(
+        args,
+        VISION,
+        ("--methods", "--seeds", "--config", "--threshold", "key=value"),
+        "its variants fix the method, seeds and settings",
+        "--results, --runs, --tasks, --jobs, --in-process, --dry-run, --no-train, "
+        "--eval-episodes, --reference-episodes, --window",
+    )
+    outcomes, written = reproduce_vision(
+        args.results or Path("results", VISION),
+        runs_root=args.runs,
+        tasks=args.tasks,
+        train=not args.no_train,
+        episodes=EPISODES if args.eval_episodes is None else args.eval_episodes,
+        reference_episodes=args.reference_episodes,
+        window=args.window,
         in_process=args.in_process,
         jobs=args.jobs,
         dry_run=args.dry_run,
@@ -449,7 +504,7 @@ def _report(outcomes: Mapping[object, str], written: Sequence[Path]) -> int:
 
 def build_parser() -> argparse.ArgumentParser:
     from maopg.experiment.run.methods import method_names
-    from maopg.experiment.studies import LEADERBOARD, PAPER, get_study, study_names
+    from maopg.experiment.studies import LEADERBOARD, PAPER, VISION, get_study, study_names
 
     paper = get_study(PAPER)
 
@@ -524,7 +579,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--study",
         default=PAPER,
-        choices=[*study_names(), LEADERBOARD],
+        choices=[*study_names(), LEADERBOARD, VISION],
         help="which grid (default %(default)s: the paper's comparison; see --list-studies)",
     )
     p.add_argument("--list-studies", action="store_true", help="describe every study and exit")
@@ -562,8 +617,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--eval-episodes",
         type=at_least(0),
-        default=10,
-        help="episodes per trained policy in evaluation.md (0: skip evaluation.md)",
+        help=f"episodes per trained policy in evaluation.md (default {EVAL_EPISODES}; 0: skip "
+        "evaluation.md); --study vision: per look and way of acting (default 20)",
     )
     p.add_argument(
         "--reference-episodes",

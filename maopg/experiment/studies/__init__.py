@@ -6,6 +6,8 @@
 - :mod:`.grid` — bringing a study's runs to completion, resumably (:func:`run_grid`);
 - :mod:`.results` — its figures, tables and evaluation (:func:`reproduce`);
 - :mod:`.leaderboard` — every method on every task that supports it, on one scale;
+- :mod:`.vision` — policies from cameras trained under randomised looks, evaluated in held-out
+  ones;
 - :mod:`.published` — Box Pushing's evaluations beside the published curves, and the
   validation of the methods that reproduce a published one;
 - :mod:`.stats` — bootstrap intervals, Fisher's exact test, interquartile means, profiles;
@@ -20,6 +22,8 @@ from maopg.experiment.studies.registry import (
     LEADERBOARD,
     LEADERBOARD_ABOUT,
     PAPER,
+    VISION,
+    VISION_ABOUT,
     Study,
     StudyTask,
     declared_thresholds,
@@ -36,6 +40,8 @@ __all__ = [
     "LEADERBOARD",
     "LEADERBOARD_ABOUT",
     "PAPER",
+    "VISION",
+    "VISION_ABOUT",
     "Study",
     "StudyTask",
     "declared_thresholds",

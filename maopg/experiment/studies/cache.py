@@ -64,3 +64,12 @@ def cached(path: Path, key: dict, compute: Callable[[], list[dict]]) -> list[dic
     results = compute()
     path.write_text(json.dumps({"key": key, "results": results}, indent=2) + "\n")
     return results
+
+
+def stored(path: Path) -> list[dict] | None:
+    """The summaries stored in ``path`` whatever they were made for (``None``: no file): what
+    stands for an evaluation whose inputs cannot be read back to check its key (a clean clone
+    keeps no weights but seed 0's)."""
+    if not path.exists():
+        return None
+    return json.loads(path.read_text())["results"]

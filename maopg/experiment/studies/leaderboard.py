@@ -41,7 +41,6 @@ from maopg.experiment.studies.builtin import (
     PAPER_METHODS,
     macromarl,
 )
-from maopg.experiment.studies.cache import behaviour, cached
 from maopg.experiment.studies.grid import Cell, run_grid
 from maopg.experiment.studies.registry import (
     LEADERBOARD,
@@ -51,7 +50,7 @@ from maopg.experiment.studies.registry import (
     frozen,
     get_study,
 )
-from maopg.experiment.studies.results import normalising_levels, reference_results
+from maopg.experiment.studies.results import reference_levels
 from maopg.experiment.studies.runs import (
     RETURN,
     RunData,
@@ -60,12 +59,11 @@ from maopg.experiment.studies.runs import (
     samples_to_threshold,
 )
 from maopg.experiment.studies.stats import (
-    bootstrap_interval,
     iqm,
     performance_profile,
     stratified_bootstrap_interval,
 )
-from maopg.experiment.studies.tables import markdown_table
+from maopg.experiment.studies.tables import markdown_table, mean_interval
 
 THRESHOLD_WINDOW = 5
 """Logged iterations the samples-to-threshold curve is smoothed over (as every study's)."""
@@ -271,27 +269,10 @@ def board_levels(board: Board, results_dir: Path, episodes: int) -> tuple[float,
     """The board's ``(random, scripted)`` mean returns under ``continue`` at its settings,
     cached in ``<results>/references/<board>.json``."""
     task = get_study(board.study).task(board.task)
-    key: dict = {"episodes": episodes, **behaviour([task.task]), "settings": dict(task.settings)}
-    path = results_dir / "references" / f"{board.name}.json"
-    path.parent.mkdir(parents=True, exist_ok=True)
-    summaries = cached(path, key, lambda: reference_results([task], episodes, ("continue",)))
-    return normalising_levels(summaries)[task.task]
+    return reference_levels(task, results_dir / "references" / f"{board.name}.json", episodes)
 
 
 # ------------------------------------------------------------------------------- tables
-def _interval(values: Sequence[float], show: Callable[[float], str]) -> str:
-    """``mean [low, high]``, each written by ``show``: the percentile bootstrap 95 % interval
-    of the mean; the bare value for one seed, ``—`` for none."""
-    kept = [v for v in values if not math.isnan(v)]
-    if not kept:
-        return "—"
-    mean = show(float(np.mean(kept)))
-    if len(kept) == 1:
-        return mean
-    low, high = bootstrap_interval(kept)
-    return f"{mean} [{show(low)}, {show(high)}]"
-
-
 def _large(value: float) -> str:
     return f"{value / 1000:.0f}K" if abs(value) >= 10_000 else f"{value:.1f}"
 
@@ -308,7 +289,7 @@ def board_table(board: Board, rows: Sequence[Entry]) -> str:
         running = sum(not e.finished for e in mine)
         seeds = f"{len(mine)}" + (f" ({running} running)" if running else "")
         reached = [e.to_threshold for e in mine if not math.isnan(e.to_threshold)]
-        threshold = _interval(reached, _large) + f" ({len(reached)} of {len(mine)})"
+        threshold = mean_interval(reached, _large) + f" ({len(reached)} of {len(mine)})"
         each = ", ".join(
             f"seed{e.seed} {_large(e.final_return)}{' ✓' if not math.isnan(e.to_threshold) else ''}"
             for e in mine
@@ -318,8 +299,8 @@ def board_table(board: Board, rows: Sequence[Entry]) -> str:
                 method,
                 board.tuning_of(method),
                 seeds,
-                _interval([e.final_return for e in mine], "{:.1f}".format),
-                _interval([e.score for e in mine], "{:.2f}".format),
+                mean_interval([e.final_return for e in mine], "{:.1f}".format),
+                mean_interval([e.score for e in mine], "{:.2f}".format),
                 threshold,
                 each,
             ]

@@ -119,6 +119,16 @@ LEADERBOARD_ABOUT = (
     "normalised scores with bootstrap intervals, interquartile means across tasks"
 )
 
+VISION = "vision"
+"""Not one study but several trained alike (:mod:`maopg.experiment.studies.vision`): ``async``
+from cameras trained under two looks of the scenes, each evaluated in its own looks and in
+held-out ones; ``eval reproduce --study vision``."""
+VISION_ABOUT = (
+    "async from RGB on Tool Delivery and Water Filling trained with env.appearance=off and "
+    "full, each evaluated in-distribution and in held-out looks (normalised scores, targets); "
+    "depth and RGB+depth pilots on Tool Delivery"
+)
+
 _STUDIES: dict[str, Callable[[], Study]] = {}
 
 

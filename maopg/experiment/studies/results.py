@@ -209,6 +209,15 @@ def normalising_levels(reference: Sequence[dict]) -> dict[str, tuple[float, floa
     return {t: (levels[t, "random"], levels[t, "scripted"]) for t in sorted(tasks)}
 
 
+def reference_levels(task: StudyTask, path: Path, episodes: int) -> tuple[float, float]:
+    """The ``(random, scripted)`` mean returns under ``continue`` of one task at its settings
+    over ``episodes`` each (the scale of a normalised score), cached in ``path``."""
+    key: dict = {"episodes": episodes, **behaviour([task.task]), "settings": dict(task.settings)}
+    path.parent.mkdir(parents=True, exist_ok=True)
+    summaries = cached(path, key, lambda: reference_results([task], episodes, ("continue",)))
+    return normalising_levels(summaries)[task.task]
+
+
 def write_evaluation(
     runs: Sequence[RunData], results_dir: str | Path, reference: list[dict], *, episodes: int = 10
 ) -> Path:

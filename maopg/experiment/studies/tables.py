@@ -16,7 +16,9 @@ between its rows, with every row's value (none when they all share their setting
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
+
+import numpy as np
 
 from maopg.experiment.studies.runs import (
     PAPER_METRIC,
@@ -30,6 +32,7 @@ from maopg.experiment.studies.runs import (
     peak,
 )
 from maopg.experiment.studies.runs import samples_to_threshold as _samples_to_threshold
+from maopg.experiment.studies.stats import bootstrap_interval
 
 
 def format_summary(summary: Summary, digits: int = 1) -> str:
@@ -40,6 +43,20 @@ def format_summary(summary: Summary, digits: int = 1) -> str:
     if summary.count == 1:
         return f"{summary.mean:.{digits}f}"
     return f"{summary.mean:.{digits}f} ± {summary.std:.{digits}f}"
+
+
+def mean_interval(values: Sequence[float], show: Callable[[float], str]) -> str:
+    """``mean [low, high]``, each written by ``show``: the percentile bootstrap 95 % interval
+    of the mean over seeds (``nan`` values left out); the bare value for one seed, ``—`` for
+    none."""
+    kept = [v for v in values if not math.isnan(v)]
+    if not kept:
+        return "—"
+    mean = show(float(np.mean(kept)))
+    if len(kept) == 1:
+        return mean
+    low, high = bootstrap_interval(kept)
+    return f"{mean} [{show(low)}, {show(high)}]"
 
 
 def _seeds(group: Sequence[RunData]) -> str:
