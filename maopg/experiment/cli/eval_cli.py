@@ -498,7 +498,8 @@ def _report(outcomes: Mapping[object, str], written: Sequence[Path]) -> int:
     for outcome in outcomes.values():
         key = outcome.split(":")[0]
         counts[key] = counts.get(key, 0) + 1
-    print("grid: " + ", ".join(f"{n} {k}" for k, n in sorted(counts.items())))
+    if counts:  # --no-train trains nothing and says nothing of it
+        print("grid: " + ", ".join(f"{n} {k}" for k, n in sorted(counts.items())))
     return 1 if failed else 0
 
 

@@ -488,7 +488,7 @@ def _write_tables(
             + normalised_table(runs, levels)
         )
     path = out / "tables.md"
-    path.write_text("\n".join(sections))
+    path.write_text("\n".join(sections).rstrip("\n") + "\n")
     return path
 
 
