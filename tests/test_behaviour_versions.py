@@ -66,6 +66,17 @@ STUDY_SETTINGS = {
     if t.task in BUILT_IN_TASKS and make_config(t.task, t.settings) != make_config(t.task)
 }
 """Each task at each study's settings: the evaluations a study caches run there."""
+LOOKS = ("full", "heldout")
+"""The randomised looks the vision study trains and evaluates in (``env.appearance``): what a
+look draws is part of a scene task's behaviour, so a change to it must raise the version too."""
+STUDY_SETTINGS.update(
+    {
+        f"{task} {json.dumps({'appearance': look})}": (task, {"appearance": look})
+        for task in BUILT_IN_TASKS
+        if issubclass(task_class(task), SceneTask)
+        for look in LOOKS
+    }
+)
 for case in MACHINE_DEPENDENT:
     STUDY_SETTINGS.pop(case, None)
 BUILT_IN_METHODS = [
