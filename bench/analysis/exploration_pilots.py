@@ -193,6 +193,41 @@ PILOTS: dict[str, Pilot] = {
             ("joint", "the Box Pushing grid's default exploration", JOINT),
         )
     },
+    **{
+        f"grid4-{name}": Pilot(
+            f"4x4, 30K samples (the learning test's budget), {about}",
+            settings,
+            size=4,
+            total_samples=30_000,
+            seeds=TARGET_SEEDS,
+        )
+        for name, about, settings in (
+            ("baseline", "`async` without exploration", {}),
+            (
+                "joint-2000",
+                "mixed over the joint, ε from 1.0 to 0.01 over 2,000 episodes",
+                {**JOINT, "ppo.explore_decay": 2_000},
+            ),
+        )
+    },
+    "td8-explore": Pilot(
+        "the canonical Tool Delivery team of eight (6 Turtlebots, 2 Fetches, 3 humans, no "
+        "`mask_options`; its 1M samples, the `teams-canonical` study's settings), `async-ar` "
+        "with ε from 1.0 to 0.01 over 500K samples, mixed per agent",
+        {
+            "env.turtlebots": 6,
+            "env.fetches": 2,
+            "env.humans": 3,
+            "batch_ticks": 200,
+            "eval_every": 20_000,
+            "ppo.explore_eps": 1.0,
+            "ppo.explore_eps_end": 0.01,
+            "ppo.explore_decay": 500_000,
+        },
+        method="async-ar",
+        total_samples=1_000_000,
+        task="tool_delivery",
+    ),
 }
 """Each pilot, in the order they were run; the best one (``acac-schedule-joint``) is also
 measured as the issue's target reads it, on 5 seeds and on 6x6, 8x8 and 10x10."""
