@@ -57,11 +57,10 @@ from maopg.sim.look_draws import (
     draw,
     scales_of,
 )
+from maopg.sim.segmentation import DISTRACTOR
 
 PREFIX = "appearance/"
 """The names of the compiled-in textures and materials start with it."""
-DISTRACTOR = "distractor"
-"""The distractors' body and geom names: ``distractor0``, ``distractor1``, ..."""
 DISTRACTOR_SHAPES: tuple[tuple[str, tuple[float, float, float]], ...] = (
     ("box", (0.14, 0.14, 0.14)),
     ("cylinder", (0.1, 0.22, 0.0)),

@@ -47,8 +47,9 @@ def parse_channels(text: str, setting: str = "channels") -> tuple[str, ...]:
 
 @dataclass(frozen=True)
 class ImageChannels:
-    """The channels of every camera image of a team (one set: every agent's image goes through
-    one shared CNN, so they have one shape) and what their values mean.
+    """The channels of every camera image of a team (one set: every agent's image travels in one
+    ``[N, H, W, planes]`` array and a rollout banks them together, so they have one shape) and
+    what their values mean.
 
     ``depth_range`` is ``(near, far)`` in metres where depth is on, else ``None``; ``classes``
     the segmentation class names (id = index) where seg is on, else empty.

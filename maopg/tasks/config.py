@@ -59,8 +59,8 @@ class SceneTaskConfig(TaskConfig):
     camera_channels: str = "rgb"
     """What each camera image holds, any of rgb, depth (metres) and seg (class ids) joined by
     '+' (rgb+depth+seg), stacked in that order. One set for the whole team: every agent's
-    image goes through one shared CNN. Resolution is the run's image_size, for the same
-    reason."""
+    image travels in one array, and a rollout banks them together. Resolution is the run's
+    image_size, for the same reason."""
     camera_fovy: float | str | None = setting(None, gt=0.0, lt=180.0)
     """Vertical field of view of the robots' cameras (degrees), for every robot (90) or per
     role (ground:70,drone:110; an entry without a role sets the others); null: each robot's

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from maopg.env.pettingzoo import parallel_env
+from maopg.experiment.cli.eval_cli import main as eval_main
 from maopg.experiment.cli.train_cli import main
 from maopg.learner import load_checkpoint
 
@@ -88,3 +89,19 @@ def test_the_pettingzoo_view_bounds_each_channel():
         assert all(space.contains(observations[a]["image"]) for a in view.agents)
     finally:
         view.close()
+
+
+def test_a_checkpoint_refuses_other_channels_of_the_same_shape(tmp_path, capsys):
+    """``rgb+depth`` and ``rgb+seg`` both stack four planes, but not for the same encoder: a
+    checkpoint evaluated under the other channels is one line, exit 2, nothing written."""
+    run_dir = tmp_path / "run"
+    settings = [s for s in RUN if not s.startswith("env.camera_channels")]
+    argv = [*settings, "env.camera_channels=rgb+depth", "--total-samples", "60"]
+    assert main([*argv, "--run-dir", str(run_dir)]) == 0
+    capsys.readouterr()
+    out = tmp_path / "eval.json"
+    argv = ["evaluate", "--checkpoint", str(run_dir), "--json", str(out)]
+    assert eval_main([*argv, "env.camera_channels=rgb+seg"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "the checkpoint's policy cannot act" in err, err
+    assert not out.exists()

@@ -79,9 +79,12 @@ class Trained:
 
 def _acting_shape(spec: EnvSpec) -> tuple[object, ...]:
     """What of an environment a policy's network is built for: each agent's options and
-    observation layout, and the images' shape."""
+    observation layout, the images' shape, their channels (``rgb+depth`` and ``rgb+seg``
+    share a shape, not an encoder) and the segmentation classes the encoder's one-hot
+    reads."""
     agents = tuple((a.name, a.option_names, a.layout) for a in spec.agents)
-    return agents, spec.image_shape
+    channels = spec.image_channels
+    return agents, spec.image_shape, channels.names, len(channels.classes)
 
 
 def resolve_checkpoint(path: str | Path) -> Path:
