@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
+import mujoco
 import numpy as np
 
 from maopg.sim.assets import ASSETS_DIR
@@ -83,20 +84,24 @@ def grow_arena(builder: SceneBuilder, team: Team) -> None:
             builder.add_prop(f"tool{team.tool(h, j)}", PROPS / TOOL_FILES[j], slot, yaw)
 
 
-def _lacks_a_basket(robot: str) -> list[str]:
-    """What of a tool carrier's parts the robot's MJCF lacks: the ``basket`` body tools are
-    welded to and the ``load`` site a Fetch puts them down at."""
-    spec = load_spec(get_robot(robot).mjcf)
-    parts = {"a 'basket' body": spec.body("basket"), "a 'load' site": spec.site("load")}
+def _lacks_a_basket(spec: mujoco.MjSpec, prefix: str = "") -> list[str]:
+    """What of a tool carrier's parts the robot under ``prefix`` in ``spec`` lacks: the
+    ``basket`` body tools are welded to and the ``load`` site a Fetch puts them down at."""
+    parts = {
+        "a 'basket' body": spec.body(f"{prefix}basket"),
+        "a 'load' site": spec.site(f"{prefix}load"),
+    }
     return [part for part, found in parts.items() if found is None]
 
 
-def require_carrier(robot: str) -> None:
-    """Refuse, in one line before anything is compiled, a Turtlebot seat's robot that cannot
-    carry tools, naming the ground robots that can."""
-    missing = _lacks_a_basket(robot)
+def require_carrier(builder: SceneBuilder, name: str, robot: str) -> None:
+    """Refuse, in one line before the scene compiles, a Turtlebot seat ``name`` whose robot
+    cannot carry tools, naming the ground robots that can (their files read only then)."""
+    missing = _lacks_a_basket(builder.spec, f"{name}/")
     if missing:
-        able = [r for r in robots_of_role("ground") if not _lacks_a_basket(r)]
+        able = [
+            r for r in robots_of_role("ground") if not _lacks_a_basket(load_spec(get_robot(r).mjcf))
+        ]
         raise ValueError(
             f"env.turtlebot_robot: {robot!r} has no {' and no '.join(m[2:] for m in missing)}"
             f" (a Turtlebot seat carries tools in its basket); robots that can: {', '.join(able)}"
@@ -107,7 +112,6 @@ def build_scene(config: Config, turtlebot_starts: Sequence[tuple[float, float]] 
     """Compile the scene (Turtlebots at the team's starts unless given); each tool may rest in
     the world, in any Fetch's gripper or in any Turtlebot's basket."""
     team = Team.of(config)
-    require_carrier(config.turtlebot_robot)
     floor = arena_floor(ARENA)  # the settings place bay 0's arm and desk spots
     floor.require_inside("env.fetch_base", config.fetch_base)
     for w, spot in enumerate(config.desk_spots):
@@ -123,6 +127,7 @@ def build_scene(config: Config, turtlebot_starts: Sequence[tuple[float, float]] 
     turtlebots, fetches = team.agents[: team.turtlebots], team.agents[team.turtlebots :]
     for name, (x, y) in zip(turtlebots, turtlebot_starts or team.starts, strict=True):
         builder.add_robot(name, config.turtlebot_robot, (x, y, 0.0), yaw=math.pi)
+        require_carrier(builder, name, config.turtlebot_robot)
     for name, (x, y) in zip(fetches, team.fetch_bases, strict=True):
         builder.add_robot(name, config.fetch_robot, (x, y, 0.0), yaw=0.0)
     holders = [
