@@ -35,6 +35,8 @@ from maopg.env import DecisionPoint, OptionEnv, make_env
 from maopg.env.rollout import REFERENCE_POLICIES, ReferencePolicy, reference_policy
 from maopg.experiment.run.methods import get_method, method_names
 from maopg.experiment.studies import get_study, study_names
+from maopg.sim.look_draws import LOOKS_VERSION
+from maopg.sim.looks import OFF
 from maopg.tasks import SceneTask, make_config, task_class, task_entry, task_names
 
 FINGERPRINTS = Path(__file__).parent / "data" / "behaviour_fingerprints.json"
@@ -68,7 +70,8 @@ STUDY_SETTINGS = {
 """Each task at each study's settings: the evaluations a study caches run there."""
 LOOKS = ("full", "heldout")
 """The randomised looks the vision study trains and evaluates in (``env.appearance``): what a
-look draws is part of a scene task's behaviour, so a change to it must raise the version too."""
+look draws is part of a scene task's behaviour there, so its fingerprint is pinned to the
+task's version and to :data:`~maopg.sim.look_draws.LOOKS_VERSION` together."""
 STUDY_SETTINGS.update(
     {
         f"{task} {json.dumps({'appearance': look})}": (task, {"appearance": look})
@@ -178,7 +181,12 @@ rounded differently move it by thousandths, a moved camera or a new colour by fa
 
 
 def _check(
-    kind: str, name: str, version: int, digest: str, owner: str, colours: list | None = None
+    kind: str,
+    name: str,
+    version: int | str,
+    digest: str,
+    owner: str,
+    colours: list | None = None,
 ) -> None:
     if RECORD:
         data = _recorded()
@@ -221,7 +229,11 @@ def test_a_task_at_a_studys_settings_behaves_as_its_declared_version(case: str) 
     task, settings = STUDY_SETTINGS[case]
     cls = task_class(task)
     digest, colours = task_fingerprint(task, settings, max_ticks=STUDY_TICKS)
-    _check("tasks", case, cls.behaviour_version, digest, cls.__name__, colours)
+    version: int | str = cls.behaviour_version
+    owner = cls.__name__
+    if settings.get("appearance", OFF) != OFF:
+        version, owner = f"{version}+looks{LOOKS_VERSION}", f"{owner} (or LOOKS_VERSION)"
+    _check("tasks", case, version, digest, owner, colours)
 
 
 @pytest.mark.parametrize("method", BUILT_IN_METHODS)

@@ -25,6 +25,14 @@ draws from its own fixed seed instead, so every episode looks the same.
   and its colour is a cast (one channel raised and another lowered by 0.12 or more) where
   training jitters each channel by at most 0.06.
 
+Geometry is held out too, so that a policy from depth alone (blind to colours and lights) meets
+something new in the held-out looks: each robot camera turns by :data:`HELDOUT_CAMERA_TURN`
+(5 to 8 degrees) where training turns it by at most :data:`CAMERA_TURN` (3), and moves by 4 to
+6 cm along each of its axes where training moves it by at most 3; each light moves and turns
+further than any training light. The turn is held out on every draw; a shift is halved where
+the camera would enter its own robot (:class:`maopg.sim.appearance.Appearance`), which may
+bring it back into training's range, so the shift alone is not guaranteed new.
+
 ``tests/sim/test_appearance.py`` checks these on the tables and on drawn looks.
 """
 
@@ -38,6 +46,11 @@ import numpy as np
 
 RGB = tuple[float, float, float]
 Quat = tuple[float, float, float, float]
+
+LOOKS_VERSION = 2
+"""The version of what the looks draw: raise it when a draw changes (a range, a palette, the
+order of the draws). The vision study's cached evaluations are keyed on it, and
+``tests/test_behaviour_versions.py`` pins each scene task's looks to it."""
 
 STREAM = 0x61707065
 """Beside the episode seed in the look's seed sequence (``"appe"`` in ASCII): a stream no task
@@ -141,10 +154,10 @@ class LightRange:
     cast: bool = False
     cast_channels: tuple[int, int] | None = None
     """The channels (raised, lowered) of a cast; ``None``: two drawn."""
-    shift: float = 0.0
-    """Each light's position moves by at most this (m) along each axis."""
-    turn: float = 0.0
-    """Each light's direction turns by at most this (degrees)."""
+    shift: tuple[float, float] = (0.0, 0.0)
+    """How far each light's position moves along each axis (m), between the two (:func:`_move`)."""
+    turn: tuple[float, float] = (0.0, 0.0)
+    """How far each light's direction turns (degrees), between the two."""
 
 
 @dataclass(frozen=True)
@@ -155,10 +168,10 @@ class LookSet:
     lights: LightRange
     textures: tuple[Texture, ...] | None = None
     """``None``: each surface keeps its own material and is only recoloured."""
-    camera_shift: float = 0.0
-    """Each robot camera moves by at most this (m) along each of its axes."""
-    camera_turn: float = 0.0
-    """Each robot camera turns by at most this (degrees) about a random axis."""
+    camera_shift: tuple[float, float] = (0.0, 0.0)
+    """How far each robot camera moves along each of its axes (m), between the two."""
+    camera_turn: tuple[float, float] = (0.0, 0.0)
+    """How far each robot camera turns about a random axis (degrees), between the two."""
     distractors: bool = False
     fixed_seed: int | None = None
     """A preset's: its look is drawn from this seed, whatever the episode's."""
@@ -169,9 +182,14 @@ class LookSet:
         return self.textures is not None or self.distractors
 
 
-CAMERA_SHIFT, CAMERA_TURN = 0.03, 3.0
-"""A robot camera's jitter (m along each axis, degrees), in training and held out alike: a few
-centimetres and degrees of a mounting that is never quite where the drawing says."""
+CAMERA_SHIFT, CAMERA_TURN = (0.0, 0.03), (0.0, 3.0)
+"""A robot camera's jitter in training (m along each axis, degrees): a few centimetres and
+degrees of a mounting that is never quite where the drawing says."""
+HELDOUT_CAMERA_SHIFT, HELDOUT_CAMERA_TURN = (0.04, 0.06), (5.0, 8.0)
+"""A held-out camera's: a mounting further off than any training draw (module docstring)."""
+LIGHT_SHIFT, LIGHT_TURN = (0.0, 0.5), (0.0, 15.0)
+HELDOUT_LIGHT_SHIFT, HELDOUT_LIGHT_TURN = (0.6, 1.0), (20.0, 30.0)
+"""How far the lights move (m along each axis) and turn (degrees), in training and held out."""
 
 LOOK_SETS: Mapping[str, LookSet] = {
     "light": LookSet(
@@ -184,8 +202,8 @@ LOOK_SETS: Mapping[str, LookSet] = {
             scale=((0.7, 1.3),),
             headlight=((0.8, 1.2),),
             tint=(0.0, 0.06),
-            shift=0.5,
-            turn=15.0,
+            shift=LIGHT_SHIFT,
+            turn=LIGHT_TURN,
         ),
         textures=TRAINING_TEXTURES,
         camera_shift=CAMERA_SHIFT,
@@ -199,12 +217,12 @@ LOOK_SETS: Mapping[str, LookSet] = {
             headlight=((0.45, 0.65), (1.35, 1.6)),
             tint=(0.12, 0.22),
             cast=True,
-            shift=0.5,
-            turn=15.0,
+            shift=HELDOUT_LIGHT_SHIFT,
+            turn=HELDOUT_LIGHT_TURN,
         ),
         textures=HELDOUT_TEXTURES,
-        camera_shift=CAMERA_SHIFT,
-        camera_turn=CAMERA_TURN,
+        camera_shift=HELDOUT_CAMERA_SHIFT,
+        camera_turn=HELDOUT_CAMERA_TURN,
         distractors=True,
     ),
     "dusk": LookSet(
@@ -361,14 +379,19 @@ def _tint(light: LightRange, rng: np.random.Generator) -> RGB:
     return (tint[0], tint[1], tint[2])
 
 
-def _move(shift: float, turn: float, rng: np.random.Generator) -> Move:
-    """A shift uniform in ``[-shift, shift]`` per axis and a turn by an angle uniform in
-    ``[0, turn]`` degrees about a uniformly random axis (the identity where both are 0)."""
-    if shift == 0.0 and turn == 0.0:
+def _move(shift: tuple[float, float], turn: tuple[float, float], rng: np.random.Generator) -> Move:
+    """A shift along each axis of size uniform in ``shift`` (m) and either sign, and a turn by
+    an angle uniform in ``turn`` (degrees) about a uniformly random axis; the identity where
+    both are ``(0, 0)``. A range from 0 draws the shift uniform in ``[-high, high]``."""
+    if shift[1] == 0.0 and turn[1] == 0.0:
         return Move()
-    d = rng.uniform(-shift, shift, 3)
+    low, high = shift
+    if low == 0.0:
+        d = rng.uniform(-high, high, 3)
+    else:
+        d = rng.uniform(low, high, 3) * rng.choice((-1.0, 1.0), 3)
     axis = rng.normal(size=3)
     axis /= np.linalg.norm(axis)
-    half = math.radians(float(rng.uniform(0.0, turn))) / 2
+    half = math.radians(float(rng.uniform(*turn))) / 2
     q = (math.cos(half), *(float(a) * math.sin(half) for a in axis))
     return Move((float(d[0]), float(d[1]), float(d[2])), q)  # type: ignore[arg-type]

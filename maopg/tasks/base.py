@@ -288,7 +288,12 @@ class SceneTask(Task):
             cameras = [robot.camera_id for robot in self.agent_robots]
             scene = self.scene
             self._appearance = Appearance(
-                scene.model, scene.data, tuple(scene.robots), self.surfaces, cameras
+                scene.model,
+                scene.data,
+                tuple(scene.robots),
+                self.surfaces,
+                cameras,
+                distractors=getattr(self.config, "appearance_distractors", True),
             )
         self._appearance.show(appearance, seed)
 

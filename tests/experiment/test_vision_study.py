@@ -16,9 +16,12 @@ from maopg.experiment.studies.vision import (
     EVALUATION,
     FULL_VARIANT,
     OFF_VARIANT,
+    PRIMARY_ACTING,
     VARIANTS,
+    Outcome,
     Variant,
     reproduce_vision,
+    targets_table,
     variant,
 )
 
@@ -122,12 +125,12 @@ def test_a_tiny_vision_study_trains_evaluates_and_redraws_without_weights(tmp_pa
         ("depth", "sampled", "full"),
     ]
     text = (out / "tables.md").read_text()
-    targets = [line for line in text.splitlines() if ": **m" in line]
-    assert [line.split(" | ")[:2] for line in targets] == [
-        ["| tool_delivery", "greedy"],
-        ["| tool_delivery", "sampled"],
+    targets = [line for line in text.splitlines() if line.startswith("| tool_delivery | ")]
+    targets = [line for line in targets if " vs " in line]
+    assert [line.split(" | ")[:3] for line in targets] == [
+        ["| tool_delivery", "greedy (reported)", "1 / 1 of 1"],
+        ["| tool_delivery", "sampled (primary)", "1 / 1 of 1"],
     ]
-    assert all(line.count("**met**") + line.count("**missed**") == 2 for line in targets)
     assert "| depth (pilot) | full | depth | greedy | 1 |" in text
     assert "| water_filling |" not in text  # a task no variant trains has no rows
     # A clean clone keeps no weights: the cached evaluations stand for them, unchanged.
@@ -136,3 +139,27 @@ def test_a_tiny_vision_study_trains_evaluates_and_redraws_without_weights(tmp_pa
     again, rewritten = reproduce_vision(out, train=False, **kw)
     assert again == {} and {p.name for p in rewritten} == {p.name for p in written}
     assert (out / "tables.md").read_text() == text
+
+
+def _outcome(name: str, seed: int, acting: str, own: float, heldout: float) -> Outcome:
+    look = "off" if name == OFF_VARIANT else "full"
+    return Outcome(name, "tool_delivery", seed, acting, look, own, heldout, own, heldout, 20)
+
+
+def test_the_targets_count_their_seeds_and_refuse_a_base_at_random():
+    """Each target row says how many seeds its means stand on (provisional short of all), the
+    verdict's acting is marked, and a base not above random gives no verdict."""
+    rows = [_outcome(OFF_VARIANT, s, a, 0.6, 0.2) for s in range(3) for a in ("greedy", "sampled")]
+    rows += [_outcome(FULL_VARIANT, s, "sampled", 0.55, 0.5) for s in range(2)]
+    rows += [_outcome(FULL_VARIANT, s, "greedy", 0.3, 0.1) for s in range(3)]
+    greedy, sampled = targets_table(["tool_delivery"], rows).splitlines()[2:]
+    assert PRIMARY_ACTING == "sampled" and "sampled (primary)" in sampled
+    assert "3 / 2 of 3 (provisional)" in sampled and "3 / 3 of 3 |" in greedy
+    assert "0.55 vs 0.8 × 0.60 = 0.48: **met**" in sampled
+    assert "0.50 vs 0.9 × 0.55 = 0.50: **met**" in sampled
+    assert "0.30 vs 0.8 × 0.60 = 0.48: **missed**" in greedy
+    at_random = [_outcome(OFF_VARIANT, 0, "sampled", -0.1, -0.2)]
+    at_random.append(_outcome(FULL_VARIANT, 0, "sampled", -0.3, -0.4))
+    row = targets_table(["tool_delivery"], at_random, {"tool_delivery": 1}).splitlines()[3]
+    assert row.count("no verdict (the base is not above random)") == 2
+    assert "**met**" not in row and "**missed**" not in row

@@ -17,7 +17,11 @@ from maopg.env.rollout import run_episode, scripted_policy
 from maopg.sim.appearance import CLEARANCE, DISTRACTOR, Appearance, Surfaces
 from maopg.sim.egl_check import gl_strings
 from maopg.sim.look_draws import (
+    CAMERA_SHIFT,
+    CAMERA_TURN,
     COLOUR_JITTER,
+    HELDOUT_CAMERA_SHIFT,
+    HELDOUT_CAMERA_TURN,
     HELDOUT_PALETTE,
     HELDOUT_SCALES,
     HELDOUT_TEXTURES,
@@ -167,6 +171,64 @@ def test_distractors_stand_by_the_walls_and_touch_nothing():
         env.close()
 
 
+def _distractors_shown(env) -> list[int]:
+    model = env.task.scene.model
+    bodies = [b for b in range(model.nbody) if model.body(b).name.startswith(DISTRACTOR)]
+    return [b for b in bodies if model.geom_rgba[model.body_geomadr[b], 3] > 0]
+
+
+def test_the_distractors_are_a_setting_of_their_own():
+    """``env.appearance_distractors=false``: the same looks (colours, lights, cameras), no
+    distractor shown."""
+    arrays = ("geom_matid", "light_pos", "light_diffuse", "cam_pos", "cam_quat")
+    looks = {}
+    for distractors in (True, False):
+        overrides = {"appearance": "full", "appearance_distractors": distractors}
+        env = make_env("tool_delivery", seed=0, overrides=overrides)
+        try:
+            seen, shown = [], 0
+            for seed in range(6):
+                env.reset(seed=seed)
+                model = env.task.scene.model
+                seen.append([getattr(model, name).copy() for name in arrays])
+                shown += len(_distractors_shown(env))
+            looks[distractors] = (seen, shown)
+        finally:
+            env.close()
+    assert looks[True][1] > 0 and looks[False][1] == 0
+    for with_them, without in zip(looks[True][0], looks[False][0], strict=True):
+        assert all(np.array_equal(a, b) for a, b in zip(with_them, without, strict=True))
+
+
+def test_where_distractors_may_stand_is_read_from_the_scene_as_built():
+    """The spots and the cameras' clearances come from the model's ``qpos0``, not from the
+    state the first look finds (a resumed run's first episode is another, and a task may move
+    its props per episode): boxes pushed a metre aside change nothing of them."""
+    env = make_env("box_pushing", seed=0, overrides={"appearance": "full"})
+    try:
+        env.reset(seed=0)
+        task = env.task
+        model, data = task.scene.model, task.scene.data
+        cameras = [robot.camera_id for robot in task.agent_robots]
+
+        def spots_and_cameras(state: mujoco.MjData) -> list[np.ndarray]:
+            looks = Appearance(model, state, tuple(task.scene.robots), task.surfaces, cameras)
+            return [looks._spots] + [box for m in looks._mounts for box in m._boxes]
+
+        as_reset = spots_and_cameras(data)
+        moved = mujoco.MjData(model)
+        moved.qpos[:] = data.qpos
+        for box in ("small_box0", "small_box1", "big_box"):
+            address = model.jnt_qposadr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, box)]
+            moved.qpos[address : address + 2] += (1.0, -0.8)
+        mujoco.mj_kinematics(model, moved)
+        assert len(as_reset[0]) > 0
+        again = spots_and_cameras(moved)
+        assert all(np.array_equal(a, b) for a, b in zip(as_reset, again, strict=True))
+    finally:
+        env.close()
+
+
 def test_a_scene_built_without_the_looks_assets_is_told_how_to_build_it():
     """A user's scene task whose builder was not given ``appearance=`` (``light`` needs
     nothing compiled in; ``full`` does)."""
@@ -184,8 +246,8 @@ def _near(rgb, palette) -> bool:
 
 def test_held_out_looks_are_never_training_looks():
     """By construction (:mod:`maopg.sim.look_draws`): the palettes are farther apart than
-    twice the jitter, the textures and scales differ, the light intensities and casts lie
-    outside the training ranges; and so are the looks drawn."""
+    twice the jitter, the textures and scales differ, the light intensities and casts and the
+    cameras' turns and shifts lie outside the training ranges; and so are the looks drawn."""
     assert set(APPEARANCES) == {*TRAINING, HELDOUT, *PRESETS} and set(LOOK_SETS) == {
         *APPEARANCES
     } - {OFF}
@@ -213,6 +275,15 @@ def test_held_out_looks_are_never_training_looks():
         assert inside != held_out, (name, look.light_scale)
         tinted = max(abs(t - 1.0) for t in look.tint) > max_tint
         assert tinted == held_out, (name, look.tint)
+        for move in look.cameras:  # the cameras' mounts: a turn and a shift held out
+            angle = np.degrees(2 * np.arccos(np.clip(move.turn[0], -1.0, 1.0)))
+            shift = np.abs(move.shift)
+            if name == HELDOUT:
+                assert HELDOUT_CAMERA_TURN[0] - 1e-9 <= angle <= HELDOUT_CAMERA_TURN[1] + 1e-9
+                assert (shift >= HELDOUT_CAMERA_SHIFT[0]).all(), move
+            elif not held_out:
+                assert angle <= CAMERA_TURN[1] + 1e-9 and (shift <= CAMERA_SHIFT[1]).all()
+    assert CAMERA_TURN[1] < HELDOUT_CAMERA_TURN[0] and CAMERA_SHIFT[1] < HELDOUT_CAMERA_SHIFT[0]
     for preset in PRESETS:  # a preset is one look
         assert draw(preset, 1, layout) == draw(preset, 2, layout)
     assert draw(HELDOUT, 1, layout) != draw(HELDOUT, 2, layout)

@@ -11,7 +11,8 @@ from depth alone (``env.camera_channels=depth``) and from RGB and depth (``rgb+d
 ``full``, not ``off``: depth is blind to colours and lights but not to the jittered cameras
 and the distractors, so a pilot trained under ``full`` asks what depth keeps of the robustness
 ``full`` trains for, where one trained under ``off`` would meet those for the first time in
-the held-out looks.
+the held-out looks. What depth can meet anew there is geometric: the held-out looks turn each
+camera further on its mount than training ever does (:mod:`maopg.sim.look_draws`).
 
 Each variant is a :class:`~maopg.experiment.studies.registry.Study` of its own (a task
 appears once in a study, and here each is trained under two looks) with its own run root,
@@ -22,7 +23,7 @@ variant's, then Water Filling's: the cheaper task's answer comes first.
 
 **Evaluation.** Each finished run's final policy plays :data:`EPISODES` episodes in its own
 looks (in-distribution: the ``env.appearance`` it trained with, ``off`` or ``full``) and as many
-in ``heldout`` looks (palettes, textures and lights no training look draws,
+in ``heldout`` looks (palettes, textures, lights and camera mounts no training look draws,
 :mod:`maopg.sim.look_draws`), :func:`~maopg.experiment.evaluation.evaluate.evaluate` on reset
 seeds 0, 1, ...: the same episodes for every run and look (under ``full`` and ``heldout`` each
 seed draws a look of its own), none of them a training episode's (a training reset seed is a
@@ -31,10 +32,12 @@ checks the study's runs). It acts both ways: greedy, the
 project's default (:data:`~maopg.experiment.evaluation.GREEDY_BY_DEFAULT`), and sampled, as it
 trained — Water Filling's feed-forward greedy policies loop (results/README.md, Water Filling
 finding 6), where a greedy score near 0 in every look would make the targets' ratios noise;
-the targets are read on each. The summaries are cached in the run directory's
-:data:`EVALUATION`, keyed as every cached evaluation (:mod:`~maopg.experiment.studies.cache`),
-on the weights too. Git keeps that file for every seed but the weights of seed 0 only, so a
-clean clone redraws the tables from the stored numbers of the seeds whose weights it lacks.
+the targets are worked out on each, and the verdict is read on sampled acting
+(:data:`PRIMARY_ACTING`, declared before any run finished). The summaries are cached in the
+run directory's :data:`EVALUATION`, keyed as every cached evaluation
+(:mod:`~maopg.experiment.studies.cache`), on the weights and the looks' version too. Git
+keeps that file for every seed but the weights of seed 0 only, so a clean clone redraws the
+tables from the stored numbers of the seeds whose weights it lacks.
 
 **Scores.** A return ``R`` is read as ``(R − R_random) / (R_scripted − R_random)`` against the
 uniform-random and scripted policies of the task at its default settings over
@@ -78,6 +81,7 @@ from maopg.experiment.studies.registry import VISION, Study, StudyTask, frozen
 from maopg.experiment.studies.results import reference_levels
 from maopg.experiment.studies.runs import RunData, discover_runs, task_settings
 from maopg.experiment.studies.tables import markdown_table, mean_interval, normalised_table
+from maopg.sim.look_draws import LOOKS_VERSION
 from maopg.sim.looks import HELDOUT, OFF
 
 if TYPE_CHECKING:
@@ -96,6 +100,10 @@ EPISODES = 20
 """Episodes of each evaluation (one look, one way of acting)."""
 ACTINGS = (("greedy", True), ("sampled", False))
 """How a policy acts in its evaluations (module docstring): name, greedy."""
+PRIMARY_ACTING = "sampled"
+"""The acting the targets' verdict is read on, declared before any result: the policy as it
+trained, which its training curves show, where greedy Water Filling policies loop (module
+docstring); the greedy rows are reported beside it."""
 EVALUATION = "vision_evaluation.json"
 """A run's cached evaluations in its own looks and the held-out ones."""
 REFERENCE_EPISODES = 100
@@ -206,6 +214,7 @@ def run_evaluation(run: RunData, episodes: int) -> list[dict] | None:
     key = {
         "episodes": episodes,
         "looks": [trained_look(run), HELDOUT],
+        "looks_version": LOOKS_VERSION,
         **behaviour([run.task], type(trained.policy)),
         "weights": sha256([weights], run.path),
     }
@@ -312,9 +321,13 @@ def task_table(task: str, variants: Sequence[Variant], rows: Sequence[Outcome]) 
 
 
 def _target(value: float, factor: float, base: float) -> str:
-    """``value ≥ factor × base``, worked out and marked (``—`` where a side is missing)."""
+    """``value ≥ factor × base``, worked out and marked; ``—`` where a side is missing, and no
+    verdict where ``base`` is at or below the random policy's 0 (a ratio of it tests
+    nothing: any score would meet it)."""
     if math.isnan(value) or math.isnan(base):
         return "— (not run yet)"
+    if base <= 0:
+        return f"{value:.2f} vs {factor:g} × {base:.2f}: no verdict (the base is not above random)"
     need = factor * base
     verdict = "**met**" if value >= need else "**missed**"
     return f"{value:.2f} vs {factor:g} × {base:.2f} = {need:.2f}: {verdict}"
@@ -328,25 +341,39 @@ def _drop(own: float, held: float) -> str:
     return f"{held - own:+.2f} ({own:.2f} → {held:.2f}{share})"
 
 
-def targets_table(tasks: Sequence[str], rows: Sequence[Outcome]) -> str:
-    """Per task and way of acting: the targets on the seed means (module docstring), and the
-    ``off``-trained policy's fall in the held-out looks."""
+def _seeds(rows: Sequence[Outcome], name: str, task: str, acting: str) -> list[Outcome]:
+    """The evaluated runs of variant ``name`` on ``task`` acting one way."""
+    return [
+        r
+        for r in rows
+        if (r.variant, r.task, r.acting) == (name, task, acting) and not math.isnan(r.own)
+    ]
 
-    def mean(name: str, task: str, acting: str, field: str) -> float:
-        mine = [r for r in rows if (r.variant, r.task, r.acting) == (name, task, acting)]
-        return _mean([getattr(r, field) for r in mine])
 
+def targets_table(
+    tasks: Sequence[str], rows: Sequence[Outcome], seeds: Mapping[str, int] | None = None
+) -> str:
+    """Per task and way of acting: the targets on the seed means (module docstring), with the
+    seeds each mean stands on (``provisional`` until both variants have all the task's
+    ``seeds``, default :data:`SEEDS`), and
+    the ``off``-trained policy's fall in the held-out looks. The verdict is the
+    :data:`PRIMARY_ACTING` row's; the other is reported beside it."""
     table = []
     for task in tasks:
         for acting, _ in ACTINGS:
-            off_own = mean(OFF_VARIANT, task, acting, "own")
-            full_own = mean(FULL_VARIANT, task, acting, "own")
-            full_held = mean(FULL_VARIANT, task, acting, "heldout")
-            off_held = mean(OFF_VARIANT, task, acting, "heldout")
+            off, full = (_seeds(rows, v, task, acting) for v in (OFF_VARIANT, FULL_VARIANT))
+            off_own, off_held = (_mean([getattr(r, f) for r in off]) for f in ("own", "heldout"))
+            full_own, full_held = (_mean([getattr(r, f) for r in full]) for f in ("own", "heldout"))
+            planned = (seeds or {}).get(task, len(SEEDS))
+            counted = f"{len(off)} / {len(full)} of {planned}"
+            if min(len(off), len(full)) < planned:
+                counted += " (provisional)"
+            role = "primary" if acting == PRIMARY_ACTING else "reported"
             table.append(
                 [
                     task,
-                    acting,
+                    f"{acting} ({role})",
+                    counted,
                     _target(full_own, TARGET_IN, off_own),
                     _target(full_held, TARGET_HELDOUT, full_own),
                     _drop(off_own, off_held),
@@ -356,6 +383,7 @@ def targets_table(tasks: Sequence[str], rows: Sequence[Outcome]) -> str:
     header = [
         "task",
         "acting",
+        "seeds `off` / `full`",
         f"`full` in-distribution ≥ {TARGET_IN:g} × `off` in-distribution",
         f"`full` held-out ≥ {TARGET_HELDOUT:g} × `full` in-distribution",
         "`off`: held-out − in-distribution",
@@ -467,8 +495,11 @@ def _write_tables(
         "(in-distribution) and as many in `heldout` looks, greedy and sampled. Scores are "
         "normalised, (R − R_random) / (R_scripted − R_random), against the task's random and "
         "scripted policies; intervals: percentile bootstrap 95 % over seeds.\n",
-        "## Targets\n\nOn the seed means of the `off` and `full` variants.\n\n"
-        + targets_table(tasks, rows),
+        "## Targets\n\nOn the seed means of the `off` and `full` variants; the verdict is "
+        f"read on {PRIMARY_ACTING} acting (declared before the runs: "
+        "`maopg.experiment.studies.vision.PRIMARY_ACTING`), the other reported beside it. "
+        "A target whose base is not above the random policy gives no verdict.\n\n"
+        + targets_table(tasks, rows, _planned_seeds(variants)),
     ]
     for task in tasks:
         if task in levels:
@@ -490,6 +521,16 @@ def _write_tables(
     path = out / "tables.md"
     path.write_text("\n".join(sections).rstrip("\n") + "\n")
     return path
+
+
+def _planned_seeds(variants: Sequence[Variant]) -> dict[str, int]:
+    """Per task, the seeds the ``off`` and ``full`` variants both plan."""
+    planned: dict[str, int] = {}
+    for v in variants:
+        if v.name in (OFF_VARIANT, FULL_VARIANT):
+            for t in v.study.tasks:
+                planned[t.task] = min(planned.get(t.task, len(t.seeds)), len(t.seeds))
+    return planned
 
 
 def _write_scores(rows: Sequence[Outcome], path: Path) -> Path:
