@@ -68,7 +68,7 @@ STUDY_SETTINGS = {
     if t.task in BUILT_IN_TASKS and make_config(t.task, t.settings) != make_config(t.task)
 }
 """Each task at each study's settings: the evaluations a study caches run there."""
-LOOKS = ("full", "heldout")
+LOOKS = ("full", "heldout", "mounts")
 """The randomised looks the vision study trains and evaluates in (``env.appearance``): what a
 look draws is part of a scene task's behaviour there, so its fingerprint is pinned to the
 task's version and to :data:`~maopg.sim.look_draws.LOOKS_VERSION` together."""

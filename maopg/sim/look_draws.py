@@ -23,17 +23,19 @@ draws from its own fixed seed instead, so every episode looks the same.
   at :data:`HELDOUT_SCALES`, none of which a training set uses;
 - lights: a held-out light intensity scale lies outside the training interval (0.7 to 1.3),
   and its colour is a cast (one channel raised and another lowered by 0.12 or more) where
-  training jitters each channel by at most 0.06.
+  training jitters each channel by at most 0.06; each light moves 0.6 to 1 m along each axis
+  and turns 20 to 30 degrees where training moves it at most 0.5 m and 15 degrees.
 
-Geometry is held out too, so that a policy from depth alone (blind to colours and lights) meets
-something new in the held-out looks: each robot camera turns by :data:`HELDOUT_CAMERA_TURN`
-(5 to 8 degrees) where training turns it by at most :data:`CAMERA_TURN` (3), and moves by 4 to
-6 cm along each of its axes where training moves it by at most 3; each light moves and turns
-further than any training light. The turn is held out on every draw; a shift is halved where
-the camera would enter its own robot (:class:`maopg.sim.appearance.Appearance`), which may
-bring it back into training's range, so the shift alone is not guaranteed new.
-
-``tests/sim/test_appearance.py`` checks these on the tables and on drawn looks.
+Geometry is held out apart, in ``mounts``: the training looks (``full``'s colours, textures,
+lights and distractors), with each robot camera turned by :data:`MOUNT_TURN` (5 to 8 degrees)
+where training turns it by at most :data:`CAMERA_TURN` (3), and moved by 4 to 6 cm along each of
+its axes where training moves it by at most 3. Apart, so that each shift is measured on its own:
+``heldout`` changes what the world looks like (the cameras jittered as in training), ``mounts``
+only where the cameras sit, which is what a depth camera, blind to colours and lights, can meet
+anew. The turn is outside
+training on every draw; a shift is halved where the camera would enter its own robot
+(:class:`maopg.sim.appearance.Appearance`), which may bring it back into training's range, so
+the shift alone is not guaranteed new.
 """
 
 from __future__ import annotations
@@ -47,7 +49,7 @@ import numpy as np
 RGB = tuple[float, float, float]
 Quat = tuple[float, float, float, float]
 
-LOOKS_VERSION = 2
+LOOKS_VERSION = 3
 """The version of what the looks draw: raise it when a draw changes (a range, a palette, the
 order of the draws). The vision study's cached evaluations are keyed on it, and
 ``tests/test_behaviour_versions.py`` pins each scene task's looks to it."""
@@ -185,11 +187,20 @@ class LookSet:
 CAMERA_SHIFT, CAMERA_TURN = (0.0, 0.03), (0.0, 3.0)
 """A robot camera's jitter in training (m along each axis, degrees): a few centimetres and
 degrees of a mounting that is never quite where the drawing says."""
-HELDOUT_CAMERA_SHIFT, HELDOUT_CAMERA_TURN = (0.04, 0.06), (5.0, 8.0)
-"""A held-out camera's: a mounting further off than any training draw (module docstring)."""
+MOUNT_SHIFT, MOUNT_TURN = (0.04, 0.06), (5.0, 8.0)
+"""A camera's in ``mounts``: a mounting further off than any training draw (module docstring)."""
 LIGHT_SHIFT, LIGHT_TURN = (0.0, 0.5), (0.0, 15.0)
 HELDOUT_LIGHT_SHIFT, HELDOUT_LIGHT_TURN = (0.6, 1.0), (20.0, 30.0)
 """How far the lights move (m along each axis) and turn (degrees), in training and held out."""
+
+FULL_LIGHTS = LightRange(
+    scale=((0.7, 1.3),),
+    headlight=((0.8, 1.2),),
+    tint=(0.0, 0.06),
+    shift=LIGHT_SHIFT,
+    turn=LIGHT_TURN,
+)
+"""The lights of ``full`` (and of ``mounts``, which changes only the cameras)."""
 
 LOOK_SETS: Mapping[str, LookSet] = {
     "light": LookSet(
@@ -198,13 +209,7 @@ LOOK_SETS: Mapping[str, LookSet] = {
     ),
     "full": LookSet(
         TRAINING_PALETTE,
-        LightRange(
-            scale=((0.7, 1.3),),
-            headlight=((0.8, 1.2),),
-            tint=(0.0, 0.06),
-            shift=LIGHT_SHIFT,
-            turn=LIGHT_TURN,
-        ),
+        FULL_LIGHTS,
         textures=TRAINING_TEXTURES,
         camera_shift=CAMERA_SHIFT,
         camera_turn=CAMERA_TURN,
@@ -221,8 +226,16 @@ LOOK_SETS: Mapping[str, LookSet] = {
             turn=HELDOUT_LIGHT_TURN,
         ),
         textures=HELDOUT_TEXTURES,
-        camera_shift=HELDOUT_CAMERA_SHIFT,
-        camera_turn=HELDOUT_CAMERA_TURN,
+        camera_shift=CAMERA_SHIFT,
+        camera_turn=CAMERA_TURN,
+        distractors=True,
+    ),
+    "mounts": LookSet(
+        TRAINING_PALETTE,
+        FULL_LIGHTS,
+        textures=TRAINING_TEXTURES,
+        camera_shift=MOUNT_SHIFT,
+        camera_turn=MOUNT_TURN,
         distractors=True,
     ),
     "dusk": LookSet(

@@ -14,13 +14,16 @@ Training levels, each drawn afresh every episode from the episode's seed:
   lights moved, turned and dimmed or brightened, each robot's camera jittered by a few
   centimetres and degrees, and up to four distractor objects standing by the walls.
 
-The held-out set, never drawn in training (:mod:`maopg.sim.look_draws` says why the two sets
-cannot meet):
+The held-out sets, never drawn in training (:mod:`maopg.sim.look_draws` says why they cannot
+meet it):
 
 - ``heldout``: ``full``'s kind of draw from other palettes (dark, neon, pale colours), other
   textures (gradients, crosses, bold checks, at other scales) and lights outside the training
-  ranges (much dimmer or brighter, visibly coloured);
-- the named presets, each one fixed look from the held-out set, the same every episode, to
+  ranges (much dimmer or brighter, visibly coloured, moved and turned further); the cameras
+  jittered as in training;
+- ``mounts``: geometry held out instead: ``full``'s draw with each robot camera turned and
+  moved on its mount further than training ever does (what a depth camera sees change);
+- the named presets, each one fixed look from ``heldout``'s kind, the same every episode, to
   look at (``python -m eval video RUN env.appearance=dusk``): ``dusk`` (dim, warm light on dark
   colours), ``neon`` (bright coloured light on saturated colours) and ``glare`` (a harsh,
   very bright light on pale colours).
@@ -32,7 +35,9 @@ OFF = "off"
 TRAINING = (OFF, "light", "full")
 """The levels a policy may be trained under."""
 HELDOUT = "heldout"
+MOUNTS = "mounts"
+"""The held-out sets: of appearance, and of the cameras' mounts."""
 PRESETS = ("dusk", "neon", "glare")
 """Fixed looks from the held-out set."""
-APPEARANCES = (*TRAINING, HELDOUT, *PRESETS)
+APPEARANCES = (*TRAINING, HELDOUT, MOUNTS, *PRESETS)
 """Every value ``env.appearance`` takes."""

@@ -54,8 +54,10 @@ class SceneTaskConfig(TaskConfig):
     appearance: str = setting(OFF, choices=APPEARANCES)
     """How the scene looks, drawn per episode from its seed (domain randomisation; physics and
     rules never change): ``off`` as built; ``light`` colours and light intensities; ``full``
-    textures, lights, camera jitter and distractors too; ``heldout`` a look never drawn in
-    training; ``dusk``, ``neon``, ``glare`` fixed held-out looks (:mod:`maopg.sim.looks`)."""
+    textures, lights, camera jitter and distractors too; ``heldout`` colours, textures and
+    lights never drawn in training; ``mounts`` full's looks with the cameras moved further on
+    their mounts than training does; ``dusk``, ``neon``, ``glare`` fixed held-out looks
+    (:mod:`maopg.sim.looks`)."""
     appearance_distractors: bool = True
     """Whether the looks that stand distractor objects by the walls (full, heldout and the
     presets) do: false draws the same looks without them (nothing else changes)."""

@@ -113,6 +113,8 @@ def test_a_tiny_vision_study_trains_evaluates_and_redraws_without_weights(tmp_pa
             (look, "sampled", 2),
             ("heldout", "greedy", 2),
             ("heldout", "sampled", 2),
+            ("mounts", "greedy", 2),
+            ("mounts", "sampled", 2),
         ]
     with (out / "scores.csv").open(newline="") as handle:
         scores = list(csv.DictReader(handle))
@@ -143,7 +145,8 @@ def test_a_tiny_vision_study_trains_evaluates_and_redraws_without_weights(tmp_pa
 
 def _outcome(name: str, seed: int, acting: str, own: float, heldout: float) -> Outcome:
     look = "off" if name == OFF_VARIANT else "full"
-    return Outcome(name, "tool_delivery", seed, acting, look, own, heldout, own, heldout, 20)
+    scores = (own, heldout, own)  # mounts: no target reads it
+    return Outcome(name, "tool_delivery", seed, acting, look, *scores, *scores, 20)
 
 
 def test_the_targets_count_their_seeds_and_refuse_a_base_at_random():

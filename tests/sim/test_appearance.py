@@ -20,12 +20,12 @@ from maopg.sim.look_draws import (
     CAMERA_SHIFT,
     CAMERA_TURN,
     COLOUR_JITTER,
-    HELDOUT_CAMERA_SHIFT,
-    HELDOUT_CAMERA_TURN,
     HELDOUT_PALETTE,
     HELDOUT_SCALES,
     HELDOUT_TEXTURES,
     LOOK_SETS,
+    MOUNT_SHIFT,
+    MOUNT_TURN,
     ROLES,
     TRAINING_PALETTE,
     TRAINING_SCALES,
@@ -33,7 +33,7 @@ from maopg.sim.look_draws import (
     Layout,
     draw,
 )
-from maopg.sim.looks import APPEARANCES, HELDOUT, OFF, PRESETS, TRAINING
+from maopg.sim.looks import APPEARANCES, HELDOUT, MOUNTS, OFF, PRESETS, TRAINING
 from maopg.tasks import make_config, task_class
 
 TASKS = ("tool_delivery", "water_filling", "box_pushing")
@@ -246,9 +246,10 @@ def _near(rgb, palette) -> bool:
 
 def test_held_out_looks_are_never_training_looks():
     """By construction (:mod:`maopg.sim.look_draws`): the palettes are farther apart than
-    twice the jitter, the textures and scales differ, the light intensities and casts and the
-    cameras' turns and shifts lie outside the training ranges; and so are the looks drawn."""
-    assert set(APPEARANCES) == {*TRAINING, HELDOUT, *PRESETS} and set(LOOK_SETS) == {
+    twice the jitter, the textures and scales differ, the light intensities and casts lie
+    outside the training ranges, and in ``mounts`` (training's looks otherwise) the cameras'
+    turns and shifts do; and so are the looks drawn."""
+    assert set(APPEARANCES) == {*TRAINING, HELDOUT, MOUNTS, *PRESETS} and set(LOOK_SETS) == {
         *APPEARANCES
     } - {OFF}
     for train, held in itertools.product(TRAINING_PALETTE, HELDOUT_PALETTE):
@@ -262,9 +263,9 @@ def test_held_out_looks_are_never_training_looks():
     low, high = min(a for a, _ in train_scale), max(b for _, b in train_scale)
     max_tint = max(LOOK_SETS[name].lights.tint[1] for name in ("light", "full"))
     layout = Layout(roles=ROLES, lights=3, cameras=2, spots=20, distractors=4)
-    for name, seed in itertools.product(("light", "full", HELDOUT, *PRESETS), range(60)):
+    for name, seed in itertools.product(("light", "full", HELDOUT, MOUNTS, *PRESETS), range(60)):
         look = draw(name, seed, layout)
-        held_out = name not in TRAINING
+        held_out = name not in (*TRAINING, MOUNTS)  # mounts holds out the cameras alone
         colours = [f.rgb for f in look.finishes] + [p.rgb for p in look.distractors if p]
         palette = HELDOUT_PALETTE if held_out else TRAINING_PALETTE
         assert all(_near(rgb, palette) for rgb in colours), name
@@ -275,15 +276,15 @@ def test_held_out_looks_are_never_training_looks():
         assert inside != held_out, (name, look.light_scale)
         tinted = max(abs(t - 1.0) for t in look.tint) > max_tint
         assert tinted == held_out, (name, look.tint)
-        for move in look.cameras:  # the cameras' mounts: a turn and a shift held out
+        for move in look.cameras:  # mounts: each camera turned and moved further than training
             angle = np.degrees(2 * np.arccos(np.clip(move.turn[0], -1.0, 1.0)))
             shift = np.abs(move.shift)
-            if name == HELDOUT:
-                assert HELDOUT_CAMERA_TURN[0] - 1e-9 <= angle <= HELDOUT_CAMERA_TURN[1] + 1e-9
-                assert (shift >= HELDOUT_CAMERA_SHIFT[0]).all(), move
-            elif not held_out:
+            if name == MOUNTS:
+                assert MOUNT_TURN[0] - 1e-9 <= angle <= MOUNT_TURN[1] + 1e-9
+                assert (shift >= MOUNT_SHIFT[0]).all(), move
+            else:
                 assert angle <= CAMERA_TURN[1] + 1e-9 and (shift <= CAMERA_SHIFT[1]).all()
-    assert CAMERA_TURN[1] < HELDOUT_CAMERA_TURN[0] and CAMERA_SHIFT[1] < HELDOUT_CAMERA_SHIFT[0]
+    assert CAMERA_TURN[1] < MOUNT_TURN[0] and CAMERA_SHIFT[1] < MOUNT_SHIFT[0]
     for preset in PRESETS:  # a preset is one look
         assert draw(preset, 1, layout) == draw(preset, 2, layout)
     assert draw(HELDOUT, 1, layout) != draw(HELDOUT, 2, layout)

@@ -11,8 +11,9 @@ from depth alone (``env.camera_channels=depth``) and from RGB and depth (``rgb+d
 ``full``, not ``off``: depth is blind to colours and lights but not to the jittered cameras
 and the distractors, so a pilot trained under ``full`` asks what depth keeps of the robustness
 ``full`` trains for, where one trained under ``off`` would meet those for the first time in
-the held-out looks. What depth can meet anew there is geometric: the held-out looks turn each
-camera further on its mount than training ever does (:mod:`maopg.sim.look_draws`).
+the held-out looks. Depth sees little of ``heldout`` (colours and lights); what it can meet
+anew is geometric, which ``mounts`` holds out: each camera turned and moved further on its mount
+than training ever does (:mod:`maopg.sim.look_draws`).
 
 Each variant is a :class:`~maopg.experiment.studies.registry.Study` of its own (a task
 appears once in a study, and here each is trained under two looks) with its own run root,
@@ -23,10 +24,13 @@ variant's, then Water Filling's: the cheaper task's answer comes first.
 
 **Evaluation.** Each finished run's final policy plays :data:`EPISODES` episodes in its own
 looks (in-distribution: the ``env.appearance`` it trained with, ``off`` or ``full``) and as many
-in ``heldout`` looks (palettes, textures, lights and camera mounts no training look draws,
-:mod:`maopg.sim.look_draws`), :func:`~maopg.experiment.evaluation.evaluate.evaluate` on reset
-seeds 0, 1, ...: the same episodes for every run and look (under ``full`` and ``heldout`` each
-seed draws a look of its own), none of them a training episode's (a training reset seed is a
+in ``heldout`` looks (palettes, textures and lights no training look draws, the cameras
+jittered as in training: :mod:`maopg.sim.look_draws`), the looks the targets read, and as many
+in ``mounts`` (``full``'s looks with each camera turned and moved on its mount further than
+training does: the geometry a depth camera sees, reported without a target),
+:func:`~maopg.experiment.evaluation.evaluate.evaluate` on reset seeds 0, 1, ...: the same
+episodes for every run and look (under ``full``, ``heldout`` and ``mounts`` each seed draws a
+look of its own), none of them a training episode's (a training reset seed is a
 32-bit hash, :func:`maopg.env.vector_base.episode_seed`; ``tests/experiment/test_vision_study.py``
 checks the study's runs). It acts both ways: greedy, the
 project's default (:data:`~maopg.experiment.evaluation.GREEDY_BY_DEFAULT`), and sampled, as it
@@ -82,7 +86,7 @@ from maopg.experiment.studies.results import reference_levels
 from maopg.experiment.studies.runs import RunData, discover_runs, task_settings
 from maopg.experiment.studies.tables import markdown_table, mean_interval, normalised_table
 from maopg.sim.look_draws import LOOKS_VERSION
-from maopg.sim.looks import HELDOUT, OFF
+from maopg.sim.looks import HELDOUT, MOUNTS, OFF
 
 if TYPE_CHECKING:
     from maopg.experiment.evaluation.loading import Trained
@@ -185,11 +189,16 @@ def trained_look(run: RunData) -> str:
     return str(task_settings(run).get("appearance", OFF))
 
 
+def evaluated_looks(run: RunData) -> tuple[str, str, str]:
+    """The looks a run's policy is evaluated in: its own, ``heldout`` and ``mounts``."""
+    return (trained_look(run), HELDOUT, MOUNTS)
+
+
 def policy_looks(trained: Trained, run: RunData, episodes: int) -> list[dict]:
-    """A run's final policy in its own looks and the held-out ones, greedy and sampled, over
-    the same seeded episodes: one summary each, with its ``look`` and ``acting``."""
+    """A run's final policy in :func:`evaluated_looks`, greedy and sampled, over the same
+    seeded episodes: one summary each, with its ``look`` and ``acting``."""
     results = []
-    for look in (trained_look(run), HELDOUT):
+    for look in evaluated_looks(run):
         env = trained.make_env(0, {"appearance": look})
         try:
             for acting, greedy in ACTINGS:
@@ -213,7 +222,7 @@ def run_evaluation(run: RunData, episodes: int) -> list[dict] | None:
     trained = load_trained(weights)
     key = {
         "episodes": episodes,
-        "looks": [trained_look(run), HELDOUT],
+        "looks": list(evaluated_looks(run)),
         "looks_version": LOOKS_VERSION,
         **behaviour([run.task], type(trained.policy)),
         "weights": sha256([weights], run.path),
@@ -234,10 +243,13 @@ class Outcome:
     """The looks it trained with."""
     own_return: float
     heldout_return: float
+    mounts_return: float
     own: float
     """Normalised score in its own looks."""
     heldout: float
-    """Normalised score in the held-out looks."""
+    """Normalised score in the held-out looks (colours, textures, lights)."""
+    mounts: float
+    """Normalised score with the cameras moved further on their mounts than in training."""
     episodes: int
     """Episodes of each of its two evaluations (0: not evaluated)."""
 
@@ -254,12 +266,12 @@ def outcomes(
         random, scripted = levels[run.task]
         for acting, _ in ACTINGS:
             found = {s["look"]: s for s in summaries if s["acting"] == acting}
-            own, held = (
-                found[k]["return_mean"] if k in found else math.nan for k in (look, HELDOUT)
-            )
-            score = [(r - random) / (scripted - random) for r in (own, held)]
+            returns = [
+                found[k]["return_mean"] if k in found else math.nan for k in evaluated_looks(run)
+            ]
+            score = [(r - random) / (scripted - random) for r in returns]
             played = found[look]["episodes"] if look in found else 0
-            out.append(Outcome(name, run.task, run.seed, acting, look, own, held, *score, played))
+            out.append(Outcome(name, run.task, run.seed, acting, look, *returns, *score, played))
     return out
 
 
@@ -275,8 +287,8 @@ def _score(value: float) -> str:
 
 def task_table(task: str, variants: Sequence[Variant], rows: Sequence[Outcome]) -> str:
     """One task: per variant that trains on it and way of acting, the normalised score in its
-    own looks and in the held-out ones (mean, bootstrap 95 % interval), the difference, and
-    every seed's."""
+    own looks, in the held-out ones and with the cameras' mounts held out (mean, bootstrap 95 %
+    interval), the held-out difference, and every seed's."""
     table = []
     for v in (v for v in variants if task in v.tasks()):
         settings = v.study.task(task).settings
@@ -288,11 +300,15 @@ def task_table(task: str, variants: Sequence[Variant], rows: Sequence[Outcome]) 
                 key=lambda r: r.seed,
             )
             if not mine:
-                table.append([*label, acting, "0", "—", "—", "—", "not run yet"])
+                table.append([*label, acting, "0", "—", "—", "—", "—", "not run yet"])
                 continue
             each = ", ".join(
                 f"seed{r.seed} "
-                + ("not evaluated" if math.isnan(r.own) else f"{r.own:.2f} → {r.heldout:.2f}")
+                + (
+                    "not evaluated"
+                    if math.isnan(r.own)
+                    else f"{r.own:.2f} → {r.heldout:.2f}, {r.mounts:.2f}"
+                )
                 for r in mine
             )
             table.append(
@@ -303,6 +319,7 @@ def task_table(task: str, variants: Sequence[Variant], rows: Sequence[Outcome]) 
                     mean_interval([r.own for r in mine], _score),
                     mean_interval([r.heldout for r in mine], _score),
                     mean_interval([r.heldout - r.own for r in mine], "{:+.2f}".format),
+                    mean_interval([r.mounts for r in mine], _score),
                     each,
                 ]
             )
@@ -315,7 +332,8 @@ def task_table(task: str, variants: Sequence[Variant], rows: Sequence[Outcome]) 
         "in-distribution [95 % CI]",
         "held-out [95 % CI]",
         "held-out − in-distribution [95 % CI]",
-        "each seed: in-distribution → held-out",
+        "mounts held out [95 % CI]",
+        "each seed: in-distribution → held-out, mounts",
     ]
     return markdown_table(header, table)
 
@@ -492,7 +510,10 @@ def _write_tables(
         "`maopg.experiment.studies.vision`). `async` from cameras, trained with "
         "`env.appearance=off` or `full`; each final policy plays "
         f"{played} episodes (reset seeds 0, 1, ...) in the looks it trained with "
-        "(in-distribution) and as many in `heldout` looks, greedy and sampled. Scores are "
+        "(in-distribution), as many in `heldout` looks (colours, textures and lights never "
+        "drawn in training) and as many in `mounts` (the training looks with the cameras "
+        "turned and moved on their mounts further than training does), greedy and sampled. "
+        "Scores are "
         "normalised, (R − R_random) / (R_scripted − R_random), against the task's random and "
         "scripted policies; intervals: percentile bootstrap 95 % over seeds.\n",
         "## Targets\n\nOn the seed means of the `off` and `full` variants; the verdict is "
@@ -536,12 +557,13 @@ def _planned_seeds(variants: Sequence[Variant]) -> dict[str, int]:
 def _write_scores(rows: Sequence[Outcome], path: Path) -> Path:
     """Every run's figures, one line per way of acting, for other tools."""
     lines = [
-        "variant,task,seed,acting,trained_look,episodes,return,heldout_return,normalised,"
-        "heldout_normalised"
+        "variant,task,seed,acting,trained_look,episodes,return,heldout_return,mounts_return,"
+        "normalised,heldout_normalised,mounts_normalised"
     ]
     lines += [
         f"{r.variant},{r.task},{r.seed},{r.acting},{r.look},{r.episodes},{r.own_return:.4f},"
-        f"{r.heldout_return:.4f},{r.own:.4f},{r.heldout:.4f}"
+        f"{r.heldout_return:.4f},{r.mounts_return:.4f},{r.own:.4f},{r.heldout:.4f},"
+        f"{r.mounts:.4f}"
         for r in rows
     ]
     path.write_text("\n".join(lines) + "\n")
