@@ -41,9 +41,10 @@ def first_images(task: str, look: str, seed: int, size: int) -> np.ndarray:
     episode with reset ``seed`` under ``env.appearance=look``."""
     env = make_env(task, seed=0, images=True, image_size=size, overrides={"appearance": look})
     try:
-        point = env.reset(seed=seed)
-        assert point.images is not None
-        return point.images.copy()
+        images = env.reset(seed=seed).images
+        if images is None:
+            raise RuntimeError(f"{task} gave no images with images=true")
+        return images.copy()
     finally:
         env.close()
 

@@ -17,13 +17,15 @@ after training) for a short budget in a scratch run directory, the two looks bac
 
 Then the short run's final policy plays the study's evaluation
 (:func:`maopg.experiment.studies.vision.policy_looks`: its own looks and the held-out ones,
-greedy and sampled) for ``--eval-episodes`` episodes each, timed the same two ways, per
-episode. An untrained policy plays Tool Delivery to its 150-tick limit, where a trained one
-ends sooner: an upper bound there too (Water Filling's episodes are always 300 ticks).
+``heldout`` and ``mounts``, greedy and sampled) for ``--eval-episodes`` episodes each, timed
+the same two ways, per episode. An untrained policy plays Tool Delivery to its 150-tick
+limit, where a trained one ends sooner: an upper bound there too (Water Filling's episodes are
+always 300 ticks).
 
 The projection multiplies out the study's cells (:data:`maopg.experiment.studies.vision.
 VARIANTS`: each task's budget × seeds per variant; the depth pilots at the ``full`` RGB rate,
-which they are not measured at) and its evaluations (2 looks × 2 ways of acting ×
+which they are not measured at) and its evaluations (3 looks: its own, ``heldout`` and
+``mounts``, × 2 ways of acting ×
 :data:`~maopg.experiment.studies.vision.EPISODES` episodes per run), in CPU-hours, and in hours
 of this machine's wall clock at one cell at a time.
 """
@@ -44,7 +46,13 @@ from train_rate import train_rate
 from maopg.experiment.evaluation.loading import load_trained
 from maopg.experiment.run.sysinfo import markdown
 from maopg.experiment.studies.runs import load_run
-from maopg.experiment.studies.vision import ACTINGS, EPISODES, VARIANTS, policy_looks
+from maopg.experiment.studies.vision import (
+    ACTINGS,
+    EPISODES,
+    HELD_OUT_LOOKS,
+    VARIANTS,
+    policy_looks,
+)
 
 CASES = {"td": "tool_delivery", "wf": "water_filling"}
 LOOKS = ("off", "full")
@@ -102,6 +110,7 @@ def main() -> None:
         "episode |\n|---|---|---|---|---|---|---|---|---|"
     )
     figures: dict[tuple[str, str], dict[str, float]] = {}
+    looks = 1 + len(HELD_OUT_LOOKS)  # a run's own looks and the held-out ones
     for case in options.cases.split(","):
         task = CASES[case]
         for look in LOOKS:
@@ -113,7 +122,7 @@ def main() -> None:
                 f"{f['eval_cpu']:.2f} |"
             )
     print(
-        f"\nProjection: each cell at its budget, then {2 * len(ACTINGS)} evaluations of "
+        f"\nProjection: each cell at its budget, then {looks * len(ACTINGS)} evaluations of "
         f"{EPISODES} episodes per run.\n\n| variant | task | runs | samples each | training "
         "CPU-hours | evaluation CPU-hours | wall hours, one cell at a time |\n"
         "|---|---|---|---|---|---|---|"
@@ -126,7 +135,7 @@ def main() -> None:
                 continue
             f = figures[study_task.task, look]
             runs, samples = len(study_task.seeds), study_task.overrides["total_samples"]
-            episodes = runs * 2 * len(ACTINGS) * EPISODES
+            episodes = runs * looks * len(ACTINGS) * EPISODES
             train_cpu = runs * samples / 100_000 * f["cpu"] / 3600
             eval_cpu = episodes * f["eval_cpu"] / 3600
             wall = (runs * samples / 100_000 * f["wall"] + episodes * f["eval_wall"]) / 3600

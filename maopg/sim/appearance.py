@@ -4,8 +4,8 @@ model's own arrays: an episode's look costs no compile and no GL upload.
 Two halves:
 
 - **Compiled in once** (:func:`add_assets`, by :class:`maopg.sim.scene.SceneBuilder` for a
-  value whose looks need them: ``full``, ``heldout`` and the presets; never for ``off`` or
-  ``light``, whose model is the task's own): MuJoCo builtin textures
+  value whose looks need them: ``full``, ``heldout``, ``mounts`` and the presets; never for
+  ``off`` or ``light``, whose model is the task's own): MuJoCo builtin textures
   (:data:`~maopg.sim.look_draws.TEXTURES`), a material per role, texture and repeat scale
   (``appearance/<role>/<texture>@<repeats>``: a GL context copies a material's texture and
   repeats when it is made, so they are chosen by switching a geom's material, never by editing
@@ -32,10 +32,11 @@ geoms (alpha 0, or a group MuJoCo does not draw).
 
 **Where distractors stand.** On the floor within :data:`BAND` of its edge, at least
 :data:`CLEARANCE` (in the plane) from every other geom and every site of the scene as the task
-built it (its ``qpos0``: robots, furniture, jars, boxes, goals, waypoints: the task's places,
-and so its paths, lie between them), and clear of the walls. Read at ``qpos0``, not from the
-episode being reset, so the spots are the same whichever episode shows the first look (a
-resumed run, an evaluation) and a prop a task moves per episode cannot move them. They are
+built it (in the posture every episode starts from, ``qpos0`` and each robot's start posture:
+robots, furniture, jars, boxes, goals, waypoints: the task's places, and so its paths, lie
+between them), and clear of the walls. Read there, not from the episode being reset, so the
+spots are the same whichever episode shows the first look (a resumed run, an evaluation) and a
+prop a task moves per episode cannot move them. They are
 visual only: nothing collides with them, so a task's physics cannot see them.
 """
 
@@ -163,7 +164,7 @@ class Appearance:
     Made when the first look is shown, after the task finished building (so the cameras' poses
     are the ones the task mounted them at): it reads the surface groups, the lights' and the
     cameras' poses and colours, and the distractor spots and the cameras' clearances from the
-    scene at its ``qpos0`` (module docstring), never from the state ``data`` holds then.
+    scene in its start posture (module docstring), never from the state ``data`` holds then.
     """
 
     def __init__(
@@ -174,10 +175,13 @@ class Appearance:
         surfaces: Surfaces,
         cameras: Sequence[int],
         *,
+        start: mujoco.MjData,
         distractors: bool = True,
     ) -> None:
         """A scene's ``model`` and ``data``, its robots' name prefixes (never restyled), what
-        it restyles and the robot cameras it jitters; ``distractors=False`` never shows one
+        it restyles and the robot cameras it jitters; ``start``: the scene in the posture every
+        episode starts from (:meth:`maopg.sim.scene.Scene.start_state`), where the distractor
+        spots and the cameras' clearances are read; ``distractors=False`` never shows one
         (``env.appearance_distractors``: no spots, so a look draws none)."""
         self.model, self.data = model, data
         robots = tuple(f"{prefix}/" for prefix in robots)
@@ -208,12 +212,10 @@ class Appearance:
         self._headlight = {
             name: np.array(getattr(head, name)) for name in ("ambient", "diffuse", "specular")
         }
-        rest = mujoco.MjData(model)  # the scene as built, whichever episode comes first
-        mujoco.mj_kinematics(model, rest)
         self._cameras = np.array(cameras, dtype=int)
         self._cam_pos = model.cam_pos[self._cameras].copy()
         self._cam_quat = model.cam_quat[self._cameras].copy()
-        self._mounts = [_Mount(model, rest, int(cam)) for cam in self._cameras]
+        self._mounts = [_Mount(model, start, int(cam)) for cam in self._cameras]
         bodies = [
             mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, f"{DISTRACTOR}{k}")
             for k in range(DISTRACTORS)
@@ -226,7 +228,7 @@ class Appearance:
         }
         self._distractors = bodies if self.has_assets else []
         placed = self.has_assets and distractors
-        self._spots = _spots(model, rest, surfaces, robots) if placed else np.zeros((0, 3))
+        self._spots = _spots(model, start, surfaces, robots) if placed else np.zeros((0, 3))
         self.layout = Layout(
             roles, int(model.nlight), len(self._cameras), len(self._spots), len(self._distractors)
         )
@@ -325,9 +327,10 @@ MOUNT_MARGIN = 0.01
 class _Mount:
     """Where a robot's camera may be moved: not into its own robot (a camera a few
     millimetres in front of its housing, moved back or down, would film the housing from
-    inside or below). The robot's visible geoms are taken in the camera body's frame at the
-    scene's ``qpos0`` (its wheels as built); those the camera already sits in (within
-    :data:`MOUNT_MARGIN`) are left out, so the check never refuses the task's own mounting."""
+    inside or below). The robot's visible geoms are taken in the camera body's frame in the
+    robot's start posture (a Fetch's arm folded, as every episode starts); those the camera
+    already sits in (within :data:`MOUNT_MARGIN`) are left out, so the check never refuses the
+    task's own mounting."""
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, camera: int) -> None:
         body = int(model.cam_bodyid[camera])

@@ -35,9 +35,10 @@ OFF = "off"
 TRAINING = (OFF, "light", "full")
 """The levels a policy may be trained under."""
 HELDOUT = "heldout"
+"""Colours, textures and lights never drawn in training."""
 MOUNTS = "mounts"
-"""The held-out sets: of appearance, and of the cameras' mounts."""
+"""Training's looks with the cameras moved on their mounts further than training does."""
 PRESETS = ("dusk", "neon", "glare")
-"""Fixed looks from the held-out set."""
+"""Fixed looks of ``heldout``'s kind."""
 APPEARANCES = (*TRAINING, HELDOUT, MOUNTS, *PRESETS)
 """Every value ``env.appearance`` takes."""

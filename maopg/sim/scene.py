@@ -274,6 +274,23 @@ class Scene:
         for robot in self.robots.values():
             robot.reset()
 
+    def start_state(self) -> mujoco.MjData:
+        """A new ``MjData`` in the posture :meth:`reset` starts from (``qpos0``, each robot's
+        start posture, positions computed), for reading the scene as built whatever episode
+        the live data is in. The live data is left bit for bit as it was."""
+        live = mujoco.MjData(self.model)
+        mujoco.mj_copyData(live, self.model, self.data)
+        try:  # a robot writes its start posture into the data it is bound to
+            mujoco.mj_resetData(self.model, self.data)
+            for robot in self.robots.values():
+                robot.set_initial_pose()
+            mujoco.mj_kinematics(self.model, self.data)
+            start = mujoco.MjData(self.model)
+            mujoco.mj_copyData(start, self.model, self.data)
+        finally:
+            mujoco.mj_copyData(self.data, self.model, live)
+        return start
+
     def _schedule(self, seconds: float) -> tuple[int, int]:
         """(physics steps in this advance, steps between control updates)."""
         n = round(seconds / self.timestep)

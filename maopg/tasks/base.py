@@ -293,6 +293,7 @@ class SceneTask(Task):
                 tuple(scene.robots),
                 self.surfaces,
                 cameras,
+                start=scene.start_state(),
                 distractors=getattr(self.config, "appearance_distractors", True),
             )
         self._appearance.show(appearance, seed)

@@ -59,8 +59,8 @@ class SceneTaskConfig(TaskConfig):
     their mounts than training does; ``dusk``, ``neon``, ``glare`` fixed held-out looks
     (:mod:`maopg.sim.looks`)."""
     appearance_distractors: bool = True
-    """Whether the looks that stand distractor objects by the walls (full, heldout and the
-    presets) do: false draws the same looks without them (nothing else changes)."""
+    """Whether the looks that stand distractor objects by the walls (full, heldout, mounts
+    and the presets) do: false draws the same looks without them (nothing else changes)."""
     camera_channels: str = "rgb"
     """What each camera image holds, any of rgb, depth (metres) and seg (class ids) joined by
     '+' (rgb+depth+seg), stacked in that order. One set for the whole team: every agent's

@@ -141,6 +141,15 @@ def test_a_tiny_vision_study_trains_evaluates_and_redraws_without_weights(tmp_pa
     again, rewritten = reproduce_vision(out, train=False, **kw)
     assert again == {} and {p.name for p in rewritten} == {p.name for p in written}
     assert (out / "tables.md").read_text() == text
+    # ... unless they measured looks drawn otherwise than now: then they stand for nothing
+    stale = out / "runs" / "off" / "tool_delivery" / "async" / "seed0" / EVALUATION
+    saved = json.loads(stale.read_text())
+    saved["key"]["looks_version"] -= 1
+    stale.write_text(json.dumps(saved))
+    reproduce_vision(out, train=False, **kw)
+    redrawn = (out / "tables.md").read_text()
+    assert "not evaluated" not in text and "| off | off | rgb | greedy | 1 | — |" in redrawn
+    assert redrawn.count("seed0 not evaluated") == 2  # greedy and sampled
 
 
 def _outcome(name: str, seed: int, acting: str, own: float, heldout: float) -> Outcome:

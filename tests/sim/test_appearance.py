@@ -14,7 +14,7 @@ import pytest
 
 from maopg.env import make_env
 from maopg.env.rollout import run_episode, scripted_policy
-from maopg.sim.appearance import CLEARANCE, DISTRACTOR, Appearance, Surfaces
+from maopg.sim.appearance import CLEARANCE, DISTRACTOR, MOUNT_MARGIN, Appearance, Surfaces
 from maopg.sim.egl_check import gl_strings
 from maopg.sim.look_draws import (
     CAMERA_SHIFT,
@@ -200,33 +200,97 @@ def test_the_distractors_are_a_setting_of_their_own():
         assert all(np.array_equal(a, b) for a, b in zip(with_them, without, strict=True))
 
 
-def test_where_distractors_may_stand_is_read_from_the_scene_as_built():
-    """The spots and the cameras' clearances come from the model's ``qpos0``, not from the
-    state the first look finds (a resumed run's first episode is another, and a task may move
-    its props per episode): boxes pushed a metre aside change nothing of them."""
-    env = make_env("box_pushing", seed=0, overrides={"appearance": "full"})
+def test_where_distractors_and_cameras_may_go_is_read_in_the_start_posture():
+    """The distractor spots and the cameras' clearances come from the scene in the posture every
+    episode starts from (:meth:`maopg.sim.scene.Scene.start_state`), not from the state the
+    first look finds: on Tool Delivery with the Fetch's arm stretched out and on Box Pushing
+    with every box pushed aside when the looks are made, 50 ``full`` looks place the cameras and
+    the distractors as looks made in the start posture do; and reading the start posture leaves
+    the live data as it was."""
+    for task_name, disturb in (("tool_delivery", _stretch_the_arm), ("box_pushing", _push_boxes)):
+        env = make_env(task_name, seed=0, overrides={"appearance": "full"})
+        try:
+            env.reset(seed=0)
+            scene, task = env.task.scene, env.task
+            model, data = scene.model, scene.data
+            cameras = [robot.camera_id for robot in task.agent_robots]
+            robots = tuple(scene.robots)
+            scene.reset()  # the start posture itself, live
+            home = Appearance(model, data, robots, task.surfaces, cameras, start=data)
+            disturb(model, data)
+            before = [data.qpos.copy(), data.qvel.copy(), data.xpos.copy()]
+            start = scene.start_state()
+            after = [data.qpos, data.qvel, data.xpos]
+            assert all(np.array_equal(a, b) for a, b in zip(before, after, strict=True))
+            made = Appearance(model, data, robots, task.surfaces, cameras, start=start)
+            expected, found = _placed(home, cameras), _placed(made, cameras)
+            assert all(np.array_equal(a, b) for a, b in zip(expected, found, strict=True))
+        finally:
+            env.close()
+
+
+def _inside_own_robot(
+    model: mujoco.MjModel, data: mujoco.MjData, camera: int, margin: float = 0.0
+) -> set[int]:
+    """The visible geoms of ``camera``'s robot whose bounding box, grown by ``margin``, holds
+    the camera."""
+    root = model.body_rootid[model.cam_bodyid[camera]]
+    point, inside = data.cam_xpos[camera], set()
+    for g in range(model.ngeom):
+        if model.body_rootid[model.geom_bodyid[g]] != root or model.geom_rgba[g, 3] == 0:
+            continue
+        rot = data.geom_xmat[g].reshape(3, 3)
+        local = rot.T @ (point - data.geom_xpos[g]) - model.geom_aabb[g, :3]
+        if model.geom_group[g] < 3 and (np.abs(local) <= model.geom_aabb[g, 3:] + margin).all():
+            inside.add(g)
+    return inside
+
+
+def test_a_jittered_camera_stays_out_of_its_robot_as_every_episode_starts():
+    """In the posture every episode starts from (a Fetch's arm folded), no ``full`` look puts
+    a camera inside a part of its own robot that the mounted camera is not already in (within
+    the mount's margin, where the check lets a camera be)."""
+    off = make_env("tool_delivery", seed=0)
     try:
-        env.reset(seed=0)
-        task = env.task
-        model, data = task.scene.model, task.scene.data
-        cameras = [robot.camera_id for robot in task.agent_robots]
-
-        def spots_and_cameras(state: mujoco.MjData) -> list[np.ndarray]:
-            looks = Appearance(model, state, tuple(task.scene.robots), task.surfaces, cameras)
-            return [looks._spots] + [box for m in looks._mounts for box in m._boxes]
-
-        as_reset = spots_and_cameras(data)
-        moved = mujoco.MjData(model)
-        moved.qpos[:] = data.qpos
-        for box in ("small_box0", "small_box1", "big_box"):
-            address = model.jnt_qposadr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, box)]
-            moved.qpos[address : address + 2] += (1.0, -0.8)
-        mujoco.mj_kinematics(model, moved)
-        assert len(as_reset[0]) > 0
-        again = spots_and_cameras(moved)
-        assert all(np.array_equal(a, b) for a, b in zip(as_reset, again, strict=True))
+        off.reset(seed=0)
+        model, data = off.task.scene.model, off.task.scene.data
+        cameras = [robot.camera_id for robot in off.task.agent_robots]
+        mounted = {cam: _inside_own_robot(model, data, cam, MOUNT_MARGIN) for cam in cameras}
+    finally:
+        off.close()
+    env = make_env("tool_delivery", seed=0, overrides={"appearance": "full"})
+    try:
+        model, data = env.task.scene.model, env.task.scene.data
+        for seed in range(50):
+            env.reset(seed=seed)
+            for cam in cameras:
+                assert _inside_own_robot(model, data, cam) <= mounted[cam], (seed, cam)
     finally:
         env.close()
+
+
+def _placed(looks: Appearance, cameras: list[int]) -> list[np.ndarray]:
+    """Where 50 ``full`` looks put the cameras and the distractors."""
+    shown = []
+    for seed in range(50):
+        looks.show("full", seed)
+        shown += [looks.model.cam_pos[cameras].copy(), looks.model.body_pos.copy()]
+    return shown
+
+
+def _stretch_the_arm(model: mujoco.MjModel, data: mujoco.MjData) -> None:
+    """Every hinge of the Fetch at its ``qpos0`` (the arm stretched out, not folded)."""
+    for j in range(model.njnt):
+        if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE and "fetch" in model.joint(j).name:
+            data.qpos[model.jnt_qposadr[j]] = model.qpos0[model.jnt_qposadr[j]]
+    mujoco.mj_kinematics(model, data)
+
+
+def _push_boxes(model: mujoco.MjModel, data: mujoco.MjData) -> None:
+    for box in ("small_box0", "small_box1", "big_box"):
+        address = model.jnt_qposadr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, box)]
+        data.qpos[address : address + 2] += (1.0, -0.8)
+    mujoco.mj_kinematics(model, data)
 
 
 def test_a_scene_built_without_the_looks_assets_is_told_how_to_build_it():
@@ -234,7 +298,8 @@ def test_a_scene_built_without_the_looks_assets_is_told_how_to_build_it():
     nothing compiled in; ``full`` does)."""
     task = task_class("box_pushing")(make_config("box_pushing"))
     scene, cameras = task.scene, [r.camera_id for r in task.agent_robots]
-    appearance = Appearance(scene.model, scene.data, tuple(scene.robots), Surfaces(), cameras)
+    robots, start = tuple(scene.robots), scene.start_state()
+    appearance = Appearance(scene.model, scene.data, robots, Surfaces(), cameras, start=start)
     appearance.show("light", 0)
     with pytest.raises(ValueError, match=r"appearance=config\.appearance"):
         appearance.show("full", 0)

@@ -17,7 +17,7 @@ from __future__ import annotations
 import functools
 import hashlib
 import json
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 
 from maopg.experiment.evaluation.evaluate import BEHAVIOUR_VERSION as EVALUATOR_VERSION
@@ -66,10 +66,14 @@ def cached(path: Path, key: dict, compute: Callable[[], list[dict]]) -> list[dic
     return results
 
 
-def stored(path: Path) -> list[dict] | None:
-    """The summaries stored in ``path`` whatever they were made for (``None``: no file): what
-    stands for an evaluation whose inputs cannot be read back to check its key (a clean clone
-    keeps no weights but seed 0's)."""
+def stored(path: Path, matching: Mapping[str, object] | None = None) -> list[dict] | None:
+    """The summaries stored in ``path`` whatever inputs they were made from (``None``: no
+    file): what stands for an evaluation whose inputs cannot be read back to check its key (a
+    clean clone keeps no weights but seed 0's). ``matching``: the parts of the key that must
+    still hold (the versions of what they measured), else ``None``."""
     if not path.exists():
         return None
-    return json.loads(path.read_text())["results"]
+    saved = json.loads(path.read_text())
+    if any(saved["key"].get(name) != value for name, value in (matching or {}).items()):
+        return None
+    return saved["results"]

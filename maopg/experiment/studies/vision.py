@@ -48,11 +48,12 @@ uniform-random and scripted policies of the task at its default settings over
 :data:`REFERENCE_EPISODES` episodes each. They act from state, and a look never changes the
 physics (``tests/sim/test_appearance.py``), so one pair of levels per task serves every look;
 cached in ``results/vision/references/<task>.json``. Per task, variant and acting: the mean over
-seeds with a percentile bootstrap 95 % interval, and every seed's, in-distribution and
-held-out; then the targets on the seed means — trained with ``full``, its in-distribution score
-at least :data:`TARGET_IN` × the ``off``-trained policy's and its held-out score at least
-:data:`TARGET_HELDOUT` × its own in-distribution one — each marked met or missed, and how far
-the ``off``-trained policy falls in the held-out looks. The training curves of every variant
+seeds with a percentile bootstrap 95 % interval, and every seed's, in-distribution, held-out
+and with the mounts held out; then the targets on the seed means — trained with ``full``, its
+in-distribution score at least :data:`TARGET_IN` × the ``off``-trained policy's and its
+``heldout`` score at least :data:`TARGET_HELDOUT` × its own in-distribution one — each marked
+met or missed (no verdict on a base not above random), on how many seeds each mean stands, and
+how far the ``off``-trained policy falls in the held-out looks. The training curves of every variant
 (one figure per task) and their final training returns, normalised alike, come with them.
 
 **Cost**, measured by ``bench/perf/vision_cost.py --samples td=2000,wf=4000`` (BENCHMARKS.md,
@@ -109,7 +110,7 @@ PRIMARY_ACTING = "sampled"
 trained, which its training curves show, where greedy Water Filling policies loop (module
 docstring); the greedy rows are reported beside it."""
 EVALUATION = "vision_evaluation.json"
-"""A run's cached evaluations in its own looks and the held-out ones."""
+"""A run's cached evaluations in its own looks and the held-out ones (:func:`evaluated_looks`)."""
 REFERENCE_EPISODES = 100
 """Episodes of each reference policy a task's normalising levels average."""
 TARGET_IN = 0.8
@@ -189,9 +190,13 @@ def trained_look(run: RunData) -> str:
     return str(task_settings(run).get("appearance", OFF))
 
 
-def evaluated_looks(run: RunData) -> tuple[str, str, str]:
-    """The looks a run's policy is evaluated in: its own, ``heldout`` and ``mounts``."""
-    return (trained_look(run), HELDOUT, MOUNTS)
+HELD_OUT_LOOKS = (HELDOUT, MOUNTS)
+"""The looks no policy trained in, where every policy is evaluated too."""
+
+
+def evaluated_looks(run: RunData) -> tuple[str, ...]:
+    """The looks a run's policy is evaluated in: its own, then :data:`HELD_OUT_LOOKS`."""
+    return (trained_look(run), *HELD_OUT_LOOKS)
 
 
 def policy_looks(trained: Trained, run: RunData, episodes: int) -> list[dict]:
@@ -217,8 +222,8 @@ def run_evaluation(run: RunData, episodes: int) -> list[dict] | None:
     from maopg.experiment.evaluation.loading import load_trained
 
     path, weights = run.path / EVALUATION, run.path / FINAL
-    if not weights.exists():
-        return stored(path)
+    if not weights.exists():  # stored numbers stand for it, if of the looks drawn now
+        return stored(path, {"looks_version": LOOKS_VERSION})
     trained = load_trained(weights)
     key = {
         "episodes": episodes,
@@ -232,8 +237,8 @@ def run_evaluation(run: RunData, episodes: int) -> list[dict] | None:
 
 @dataclass(frozen=True)
 class Outcome:
-    """One run's final policy, acting one way, in its own looks and in the held-out ones
-    (``nan``: not evaluated)."""
+    """One run's final policy, acting one way, in its own looks, in ``heldout`` and in
+    ``mounts`` (``nan``: not evaluated)."""
 
     variant: str
     task: str
@@ -251,7 +256,7 @@ class Outcome:
     mounts: float
     """Normalised score with the cameras moved further on their mounts than in training."""
     episodes: int
-    """Episodes of each of its two evaluations (0: not evaluated)."""
+    """Episodes of each of its evaluations, one per look (0: not evaluated)."""
 
 
 def outcomes(
