@@ -14,6 +14,8 @@ from pathlib import Path
 import pytest
 
 from maopg.experiment.studies import get_study, study_names
+from maopg.experiment.studies.registry import VISION
+from maopg.experiment.studies.vision import METHOD, VARIANTS
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -29,7 +31,7 @@ def _tracked(pattern: str) -> list[Path]:
 
 def allowed_weights() -> set[Path]:
     """Seed 0's ``final.pt`` of every method of every registered study (and of the paper's
-    runs a study reads as its baselines)."""
+    runs a study reads as its baselines), and of every variant of the vision study."""
     allowed = set()
     for name in study_names():
         study = get_study(name)
@@ -38,6 +40,11 @@ def allowed_weights() -> set[Path]:
                 continue
             for method in study.methods:
                 allowed.add(study.runs_dir() / task.task / method / "seed0" / "final.pt")
+    for variant in VARIANTS:  # the vision study's runs, a variant a folder
+        runs = Path("results", VISION, "runs", variant.name)
+        for task in variant.study.tasks:
+            if 0 in task.seeds:
+                allowed.add(runs / task.task / METHOD / "seed0" / "final.pt")
     return allowed
 
 
