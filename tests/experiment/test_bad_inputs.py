@@ -58,8 +58,8 @@ BAD_TRAIN = [
     (["env.max_staged=3"], r"env\.max_staged must be <= 2, got 3"),
     (
         ["env.appearance=foggy"],
-        r"env\.appearance must be one of \['off', 'light', 'full', 'heldout', 'dusk', 'neon', "
-        r"'glare'\], got 'foggy'",
+        r"env\.appearance must be one of \['off', 'light', 'full', 'heldout', 'mounts', 'dusk', "
+        r"'neon', 'glare'\], got 'foggy'",
     ),
     (["hidden=0"], r"hidden must be >= 1, got 0"),
     (["layers=0"], r"layers must be >= 1, got 0"),
