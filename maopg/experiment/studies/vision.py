@@ -376,11 +376,10 @@ def _seeds(rows: Sequence[Outcome], name: str, task: str, acting: str) -> list[O
 def targets_table(
     tasks: Sequence[str], rows: Sequence[Outcome], seeds: Mapping[str, int] | None = None
 ) -> str:
-    """Per task and way of acting: the targets on the seed means (module docstring), with the
+    """Per task and way of acting: the targets on the seed means (module docstring), the
     seeds each mean stands on (``provisional`` until both variants have all the task's
-    ``seeds``, default :data:`SEEDS`), and
-    the ``off``-trained policy's fall in the held-out looks. The verdict is the
-    :data:`PRIMARY_ACTING` row's; the other is reported beside it."""
+    ``seeds``, default :data:`SEEDS`), and the ``off``-trained policy's fall in the held-out
+    looks. The verdict is the :data:`PRIMARY_ACTING` row's; the other is reported beside it."""
     table = []
     for task in tasks:
         for acting, _ in ACTINGS:
