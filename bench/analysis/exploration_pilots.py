@@ -24,15 +24,14 @@ the scripted joint option at each decision point, and the joint option it prefer
 from __future__ import annotations
 
 import argparse
-import subprocess
 import sys
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import torch
+from pilot_runs import setting_text, train_runs
 
 from maopg.env.rollout import scripted_policy
 from maopg.experiment.evaluation.loading import load_trained
@@ -83,12 +82,8 @@ class Pilot:
             str(seed),
             "--run-dir",
             str(run_dir),
-            *(f"{key}={_text(value)}" for key, value in settings.items()),
+            *(f"{key}={setting_text(value)}" for key, value in settings.items()),
         ]
-
-
-def _text(value: Any) -> str:
-    return str(value).lower() if isinstance(value, bool) else str(value)
 
 
 PINNED = {
@@ -237,27 +232,15 @@ def run_dir(name: str, seed: int) -> Path:
     return ROOT / name / f"seed{seed}"
 
 
-def _run_one(name: str, seed: int) -> str:
-    path = run_dir(name, seed)
-    if (path / "done.json").exists():
-        return f"{path}: done"
-    command = PILOTS[name].command(seed, path)
-    if (path / "checkpoint.pt").exists():
-        command.append("--resume")
-    elif path.exists():
-        command.append("--overwrite")
-    log = path.parent / f"seed{seed}.log"
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with log.open("w") as out:
-        code = subprocess.call(command, stdout=out, stderr=subprocess.STDOUT)
-    return f"{path}: {'finished' if code == 0 else f'FAILED ({code}), see {log}'}"
-
-
 def run(names: list[str], jobs: int) -> None:
-    cells = [(name, seed) for name in names or PILOTS for seed in PILOTS[name].seeds]
-    with ThreadPoolExecutor(jobs) as pool:
-        for line in pool.map(lambda cell: _run_one(*cell), cells):
-            print(line, flush=True)
+    train_runs(
+        (
+            (PILOTS[name].command(seed, run_dir(name, seed)), run_dir(name, seed))
+            for name in names or PILOTS
+            for seed in PILOTS[name].seeds
+        ),
+        jobs,
+    )
 
 
 def table() -> str:

@@ -17,13 +17,13 @@ team's mean over 40 episodes.
 from __future__ import annotations
 
 import argparse
-import subprocess
 import sys
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from pilot_runs import finished, setting_text, train_runs
 
 from maopg.env.rollout import evaluate_reference
 from maopg.experiment.run.directory import read_metrics
@@ -55,7 +55,7 @@ class Pilot:
             *("python", "-m", "train", "--task", "tool_delivery", "--method", self.method),
             *("--seed", str(seed), "--total-samples", str(BUDGET)),
             *("--run-dir", str(ROOT / name / f"seed{seed}")),
-            *(f"{k}={str(v).lower() if isinstance(v, bool) else v}" for k, v in settings.items()),
+            *(f"{k}={setting_text(v)}" for k, v in settings.items()),
         ]
 
 
@@ -108,12 +108,11 @@ PILOTS = {
 
 def run(names: list[str]) -> None:
     """Train every seed of the named pilots (all by default) that has not finished."""
-    for name in names or list(PILOTS):
-        for seed in SEEDS:
-            if (ROOT / name / f"seed{seed}" / "done.json").exists():
-                continue
-            command = PILOTS[name].command(name, seed)
-            subprocess.run([sys.executable, *command[1:]], check=True)
+    train_runs(
+        ([sys.executable, *PILOTS[name].command(name, seed)[1:]], ROOT / name / f"seed{seed}")
+        for name in names or PILOTS
+        for seed in SEEDS
+    )
 
 
 def table() -> str:
@@ -131,7 +130,7 @@ def table() -> str:
         cells, finals = [], []
         for seed in SEEDS:
             path = ROOT / name / f"seed{seed}"
-            if not (path / "done.json").exists():
+            if not finished(path):
                 cells.append("—")
                 continue
             values = [

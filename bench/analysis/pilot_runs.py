@@ -1,0 +1,47 @@
+"""Training the runs of a pilot script (``exploration_pilots.py``, ``few_episode_pilots.py``,
+``vision_collapse.py``): each run a ``python -m train`` command in a run directory of its own,
+so a script stopped with its session resumes where it stopped and skips what is done, and a
+pilot table is read from the logged runs alone."""
+
+from __future__ import annotations
+
+import subprocess
+from collections.abc import Iterable
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+from typing import Any
+
+
+def setting_text(value: Any) -> str:
+    """A setting's value as the ``train`` command line takes it (``true``, not ``True``)."""
+    return str(value).lower() if isinstance(value, bool) else str(value)
+
+
+def finished(path: Path) -> bool:
+    """Whether the run in ``path`` trained to its budget."""
+    return (path / "done.json").exists()
+
+
+def train_run(command: list[str], path: Path) -> str:
+    """Run the ``train`` ``command`` whose run directory is ``path``: nothing if it is done,
+    ``--resume`` where a checkpoint is, ``--overwrite`` over a run killed before its first
+    one; its output goes to ``seed<k>.log`` beside the run. One line saying how it ended."""
+    if finished(path):
+        return f"{path}: done"
+    if (path / "checkpoint.pt").exists():
+        command = [*command, "--resume"]
+    elif path.exists():
+        command = [*command, "--overwrite"]
+    log = path.parent / f"{path.name}.log"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with log.open("w") as out:
+        code = subprocess.call(command, stdout=out, stderr=subprocess.STDOUT)
+    return f"{path}: {'finished' if code == 0 else f'FAILED ({code}), see {log}'}"
+
+
+def train_runs(runs: Iterable[tuple[list[str], Path]], jobs: int = 1) -> None:
+    """:func:`train_run` each ``(command, run directory)``, ``jobs`` at a time, printing a line
+    as each ends."""
+    with ThreadPoolExecutor(jobs) as pool:
+        for line in pool.map(lambda run: train_run(*run), runs):
+            print(line, flush=True)
