@@ -70,14 +70,17 @@ class SceneTaskConfig(TaskConfig):
     """Vertical field of view of the robots' cameras (degrees), for every robot (90) or per
     role (ground:70,drone:110; an entry without a role sets the others); null: each robot's
     own."""
-    camera_offset: tuple[float, float, float] | str = (0.0, 0.0, 0.0)
+    camera_offset: tuple[float, float, float] | str = setting((0.0, 0.0, 0.0), ge=-1.0, le=1.0)
     """Moves each robot's camera on its mount, metres along the camera's own axes (x right,
     y up, z backward, away from what it looks at): [0, 0.1, 0] for every robot, or per role
-    (drone:0 0 -0.05)."""
-    camera_rotation: tuple[float, float, float] | str = (0.0, 0.0, 0.0)
+    (drone:0 0 -0.05). Within a metre of the mount on each axis: further, a camera leaves the
+    robot it rides on, into walls and other robots."""
+    camera_rotation: tuple[float, float, float] | str = setting(
+        (0.0, 0.0, 0.0), ge=-180.0, le=180.0
+    )
     """Turns each robot's camera on its mount, degrees about its own x (tilts the view up),
     then y (turns it left), then z (rolls it) axis: for every robot, or per role (ground:-10
-    0 0)."""
+    0 0); each angle within ±180."""
 
     CAMERA_SIZES: ClassVar[Mapping[str, int]] = {
         "camera_fovy": 1,

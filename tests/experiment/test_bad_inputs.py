@@ -61,6 +61,13 @@ BAD_TRAIN = [
         r"env\.appearance must be one of \['off', 'light', 'full', 'heldout', 'mounts', 'dusk', "
         r"'neon', 'glare'\], got 'foggy'",
     ),
+    (
+        ["env.appearance=heldout"],
+        r"env\.appearance=heldout is held out from training: a run trains under off, light, full",
+    ),
+    (["env.appearance=dusk"], r"env\.appearance=dusk is held out from training"),
+    (["env.camera_offset=0 0 5"], r"env\.camera_offset must be <= 1, got '0 0 5'"),
+    (["env.camera_rotation=ground:400 0 0"], r"env\.camera_rotation must be <= 180"),
     (["hidden=0"], r"hidden must be >= 1, got 0"),
     (["layers=0"], r"layers must be >= 1, got 0"),
     (["ppo.num_minibatches=0"], r"ppo\.num_minibatches must be >= 1, got 0"),

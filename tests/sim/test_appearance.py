@@ -20,9 +20,13 @@ from maopg.sim.look_draws import (
     CAMERA_SHIFT,
     CAMERA_TURN,
     COLOUR_JITTER,
+    HELDOUT_LIGHT_SHIFT,
+    HELDOUT_LIGHT_TURN,
     HELDOUT_PALETTE,
     HELDOUT_SCALES,
     HELDOUT_TEXTURES,
+    LIGHT_SHIFT,
+    LIGHT_TURN,
     LOOK_SETS,
     MOUNT_SHIFT,
     MOUNT_TURN,
@@ -309,11 +313,17 @@ def _near(rgb, palette) -> bool:
     return any(np.abs(np.subtract(rgb, c)).max() <= COLOUR_JITTER + 1e-9 for c in palette)
 
 
+def _angle(move) -> float:
+    """Degrees a move turns by."""
+    return float(np.degrees(2 * np.arccos(np.clip(move.turn[0], -1.0, 1.0))))
+
+
 def test_held_out_looks_are_never_training_looks():
     """By construction (:mod:`maopg.sim.look_draws`): the palettes are farther apart than
-    twice the jitter, the textures and scales differ, the light intensities and casts lie
-    outside the training ranges, and in ``mounts`` (training's looks otherwise) the cameras'
-    turns and shifts do; and so are the looks drawn."""
+    twice the jitter, the textures and scales differ, the light and headlight intensities and
+    casts lie outside the training ranges, ``heldout``'s lights move and turn further than
+    training's, and in ``mounts`` (training's looks otherwise) the cameras' turns and shifts
+    do; and so are the looks drawn."""
     assert set(APPEARANCES) == {*TRAINING, HELDOUT, MOUNTS, *PRESETS} and set(LOOK_SETS) == {
         *APPEARANCES
     } - {OFF}
@@ -326,6 +336,8 @@ def test_held_out_looks_are_never_training_looks():
         interval for name in ("light", "full") for interval in LOOK_SETS[name].lights.scale
     ]
     low, high = min(a for a, _ in train_scale), max(b for _, b in train_scale)
+    train_head = [i for name in ("light", "full") for i in LOOK_SETS[name].lights.headlight]
+    head_low, head_high = min(a for a, _ in train_head), max(b for _, b in train_head)
     max_tint = max(LOOK_SETS[name].lights.tint[1] for name in ("light", "full"))
     layout = Layout(roles=ROLES, lights=3, cameras=2, spots=20, distractors=4)
     for name, seed in itertools.product(("light", "full", HELDOUT, MOUNTS, *PRESETS), range(60)):
@@ -339,10 +351,19 @@ def test_held_out_looks_are_never_training_looks():
         assert textures <= {t.name for t in allowed}
         inside = low <= look.light_scale <= high
         assert inside != held_out, (name, look.light_scale)
+        head_inside = head_low <= look.headlight_scale <= head_high
+        assert head_inside != held_out, (name, look.headlight_scale)
         tinted = max(abs(t - 1.0) for t in look.tint) > max_tint
         assert tinted == held_out, (name, look.tint)
+        for move in look.lights:  # heldout: every light moved and turned further than training
+            if name == HELDOUT:
+                assert HELDOUT_LIGHT_TURN[0] - 1e-9 <= _angle(move) <= HELDOUT_LIGHT_TURN[1] + 1e-9
+                assert (np.abs(move.shift) >= HELDOUT_LIGHT_SHIFT[0]).all(), move
+            elif not held_out:
+                assert _angle(move) <= LIGHT_TURN[1] + 1e-9, (name, move)
+                assert (np.abs(move.shift) <= LIGHT_SHIFT[1]).all(), (name, move)
         for move in look.cameras:  # mounts: each camera turned and moved further than training
-            angle = np.degrees(2 * np.arccos(np.clip(move.turn[0], -1.0, 1.0)))
+            angle = _angle(move)
             shift = np.abs(move.shift)
             if name == MOUNTS:
                 assert MOUNT_TURN[0] - 1e-9 <= angle <= MOUNT_TURN[1] + 1e-9
@@ -350,6 +371,7 @@ def test_held_out_looks_are_never_training_looks():
             else:
                 assert angle <= CAMERA_TURN[1] + 1e-9 and (shift <= CAMERA_SHIFT[1]).all()
     assert CAMERA_TURN[1] < MOUNT_TURN[0] and CAMERA_SHIFT[1] < MOUNT_SHIFT[0]
+    assert LIGHT_TURN[1] < HELDOUT_LIGHT_TURN[0] and LIGHT_SHIFT[1] < HELDOUT_LIGHT_SHIFT[0]
     for preset in PRESETS:  # a preset is one look
         assert draw(preset, 1, layout) == draw(preset, 2, layout)
     assert draw(HELDOUT, 1, layout) != draw(HELDOUT, 2, layout)

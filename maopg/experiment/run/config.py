@@ -42,6 +42,7 @@ from maopg.experiment.run.wandb_log import WandbOptions, missing_wandb, wandb_av
 from maopg.policy.choices import PRECISION_NAMES
 from maopg.settings import Settings, setting, unknown_setting
 from maopg.sim.egl_check import gl_problem
+from maopg.sim.looks import OFF, TRAINING
 from maopg.tasks import make_config, task_class, task_entry
 from maopg.tasks.config import MAX_IMAGE_SIZE, TaskConfig
 
@@ -253,6 +254,13 @@ class TrainConfig(Settings):
             raise ValueError(missing_wandb())
         cfg.learner.validate()
         task_settings = make_config(cfg.task, cfg.env_overrides)  # names, kinds and bounds
+        look = getattr(task_settings, "appearance", OFF)
+        if look not in TRAINING:  # the held-out looks stay out of every training episode
+            raise ValueError(
+                f"env.appearance={look} is held out from training: a run trains under "
+                f"{', '.join(TRAINING)}, and its policy is evaluated or filmed in {look} "
+                f"(python -m eval evaluate --checkpoint RUN env.appearance={look})"
+            )
         check_task = getattr(cfg.learner, "check_task", None)  # the section's relations to it
         if check_task is not None:
             check_task(task_settings)

@@ -360,7 +360,10 @@ def _drop(own: float, held: float) -> str:
     """How far the held-out score falls below the in-distribution one."""
     if math.isnan(own) or math.isnan(held):
         return "— (not run yet)"
-    share = f"; keeps {held / own:.0%}" if own > 0 else ""
+    if held <= 0:
+        share = "; held out at or below the random policy"
+    else:
+        share = f"; keeps {held / own:.0%}" if own > 0 else ""
     return f"{held - own:+.2f} ({own:.2f} → {held:.2f}{share})"
 
 
@@ -515,8 +518,10 @@ def _write_tables(
         "`env.appearance=off` or `full`; each final policy plays "
         f"{played} episodes (reset seeds 0, 1, ...) in the looks it trained with "
         "(in-distribution), as many in `heldout` looks (colours, textures and lights never "
-        "drawn in training) and as many in `mounts` (the training looks with the cameras "
-        "turned and moved on their mounts further than training does), greedy and sampled. "
+        "drawn in training; the cameras jittered and distractors stood as in `full`) and as "
+        "many in `mounts` (`full`'s looks with the cameras turned and moved on their mounts "
+        "further than training does: for an `off`-trained policy, `full`'s looks are new too), "
+        "greedy and sampled. "
         "Scores are "
         "normalised, (R − R_random) / (R_scripted − R_random), against the task's random and "
         "scripted policies; intervals: percentile bootstrap 95 % over seeds.\n",

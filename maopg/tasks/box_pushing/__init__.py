@@ -4,6 +4,7 @@ lazily, on first use of the entry."""
 
 from __future__ import annotations
 
+from maopg.tasks.box_pushing_grid import EXPLORATION
 from maopg.tasks.registry import register_task
 
 register_task(
@@ -14,5 +15,7 @@ register_task(
     # this task shares with the grid (maopg/tasks/box_pushing/task.py).
     scripted="maopg.tasks.box_pushing_grid.scripted:scripted_policy",
     panel=f"{__name__}.display:panel",
-    train_defaults={"batch_ticks": 1000, "total_samples": 500_000, "images": False},
+    # The grid's budget, batches and exploration (``EXPLORATION``): the same decisions over
+    # episodes as long, so the two tasks' studies differ in the physics alone.
+    train_defaults={"batch_ticks": 1000, "total_samples": 500_000, "images": False, **EXPLORATION},
 )
