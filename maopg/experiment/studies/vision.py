@@ -57,12 +57,11 @@ how far the ``off``-trained policy falls in the held-out looks. The training cur
 (one figure per task) and their final training returns, normalised alike, come with them.
 
 **Cost**, measured by ``bench/perf/vision_cost.py --samples td=2000,wf=4000`` (BENCHMARKS.md,
-"The vision study's cost"; short runs side by side on 2 shared cores at load 5.6): per 100K
-samples, Tool Delivery 807 s of wall clock with ``off`` and 994 s with ``full``, Water Filling
-695 s and 684 s, so a Tool Delivery run takes 13–17 minutes and a Water Filling run about 23;
-an evaluation episode 0.8–1.3 s on Tool Delivery and 2.1–2.2 s on Water Filling. The 14 runs
-and their evaluations project to 6.1 CPU-hours (start-up counted per short run: an upper bound)
-and 4.8 hours of that machine's wall clock one cell at a time; the evaluations are 7–10 % of it.
+"The vision study's cost"; short runs side by side on 2 shared cores at load 7.0): per 100K
+samples, Tool Delivery 786 CPU-seconds with ``off`` and 778 with ``full``, Water Filling 784
+and 886; an evaluation episode 1.0–1.3 CPU-seconds on Tool Delivery and 1.8–1.9 on Water
+Filling. The 14 runs and their evaluations in three looks project to 5.2 CPU-hours (start-up
+counted per short run: an upper bound); the evaluations are 12–22 % of a run's training.
 """
 
 from __future__ import annotations
