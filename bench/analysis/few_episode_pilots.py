@@ -17,13 +17,12 @@ team's mean over 40 episodes.
 from __future__ import annotations
 
 import argparse
-import sys
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from pilot_runs import finished, setting_text, train_runs
+from pilot_runs import finished, train_command, train_runs
 
 from maopg.env.rollout import evaluate_reference
 from maopg.experiment.run.directory import read_metrics
@@ -50,13 +49,9 @@ class Pilot:
 
     def command(self, name: str, seed: int) -> list[str]:
         """The ``train`` command line of the pilot ``name``'s seed."""
+        run_dir = ROOT / name / f"seed{seed}"
         settings = {**COMMON, **self.settings}
-        return [
-            *("python", "-m", "train", "--task", "tool_delivery", "--method", self.method),
-            *("--seed", str(seed), "--total-samples", str(BUDGET)),
-            *("--run-dir", str(ROOT / name / f"seed{seed}")),
-            *(f"{k}={setting_text(v)}" for k, v in settings.items()),
-        ]
+        return train_command("tool_delivery", self.method, seed, BUDGET, run_dir, settings)
 
 
 PILOTS = {
@@ -109,7 +104,7 @@ PILOTS = {
 def run(names: list[str]) -> None:
     """Train every seed of the named pilots (all by default) that has not finished."""
     train_runs(
-        ([sys.executable, *PILOTS[name].command(name, seed)[1:]], ROOT / name / f"seed{seed}")
+        (PILOTS[name].command(name, seed), ROOT / name / f"seed{seed}")
         for name in names or PILOTS
         for seed in SEEDS
     )

@@ -6,7 +6,8 @@ pilot table is read from the logged runs alone."""
 from __future__ import annotations
 
 import subprocess
-from collections.abc import Iterable
+import sys
+from collections.abc import Iterable, Mapping
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
@@ -15,6 +16,18 @@ from typing import Any
 def setting_text(value: Any) -> str:
     """A setting's value as the ``train`` command line takes it (``true``, not ``True``)."""
     return str(value).lower() if isinstance(value, bool) else str(value)
+
+
+def train_command(
+    task: str, method: str, seed: int, samples: int, run_dir: Path, settings: Mapping[str, Any]
+) -> list[str]:
+    """``python -m train`` of one run, as a pilot table prints it (:func:`train_run` runs it
+    with this interpreter)."""
+    return [
+        *("python", "-m", "train", "--task", task, "--method", method),
+        *("--seed", str(seed), "--total-samples", str(samples), "--run-dir", str(run_dir)),
+        *(f"{key}={setting_text(value)}" for key, value in settings.items()),
+    ]
 
 
 def finished(path: Path) -> bool:
@@ -28,6 +41,8 @@ def train_run(command: list[str], path: Path) -> str:
     one; its output goes to ``seed<k>.log`` beside the run. One line saying how it ended."""
     if finished(path):
         return f"{path}: done"
+    if command[0] == "python":  # as printed: run it with this interpreter
+        command = [sys.executable, *command[1:]]
     if (path / "checkpoint.pt").exists():
         command = [*command, "--resume"]
     elif path.exists():

@@ -1,12 +1,12 @@
 """How often ``async`` from RGB on Tool Delivery collapses early, trained with
 ``env.appearance=off`` and with ``full``: the vision study's ``full`` seed 1 settled within
 its first 10K samples on one deterministic joint option choice that never delivers (entropy
-below 1e-5 from 6.5K samples on, every episode −150) and scored −0.29 in every look, where no
-``off`` seed did. Three seeds a look cannot say whether randomised looks make that likelier;
-this probe trains more seeds of both looks at the study's settings to 10K samples, where the
-collapse shows, each run persisted in ``results/vision/collapse/<look>/seed<k>`` (config,
-metrics, ``done.json``; weights stay local), so ``run`` resumes where a session stopped and
-``table`` regenerates the table from the logged runs.
+below 3e-5 from 6.3K samples on, every episode −150 to −153) and scored −0.29 in every look,
+where no ``off`` seed did. Three seeds a look cannot say whether randomised looks make that
+likelier; this probe trains more seeds of both looks at the study's settings to 10K samples,
+where the collapse shows, each run persisted in ``results/vision/collapse/<look>/seed<k>``
+(config, metrics, ``done.json``; weights stay local), so ``run`` resumes where a session
+stopped and ``table`` regenerates the table from the logged runs.
 
     python bench/analysis/vision_collapse.py run [--jobs 2]
     python bench/analysis/vision_collapse.py table > results/vision/collapse.md
@@ -18,11 +18,10 @@ exactly, in either look (the same seed and settings; checked by ``table``).
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 import numpy as np
-from pilot_runs import finished, setting_text, train_runs
+from pilot_runs import finished, train_command, train_runs
 
 from maopg.experiment.run.directory import read_metrics
 from maopg.experiment.studies.vision import SEEDS as STUDY_SEEDS
@@ -56,12 +55,7 @@ def command(look: str, seed: int) -> list[str]:
         "progress": False,
         "eval_episodes": 0,
     }
-    return [
-        *(sys.executable, "-m", "train", "--task", TASK, "--method", "async"),
-        *("--seed", str(seed), "--total-samples", str(BUDGET)),
-        *("--run-dir", str(ROOT / look / f"seed{seed}")),
-        *(f"{k}={setting_text(v)}" for k, v in settings.items()),
-    ]
+    return train_command(TASK, "async", seed, BUDGET, ROOT / look / f"seed{seed}", settings)
 
 
 def _rows(path: Path) -> list[dict[str, str]]:
@@ -114,11 +108,12 @@ def table() -> str:
                 for r in rows
                 if int(r["samples"]) > last and r["episode_return"] != "nan"
             ]
+            is_collapsed = entropy < COLLAPSED
             done += 1
-            collapsed += entropy < COLLAPSED
+            collapsed += is_collapsed
             lines.append(
                 f"| {look} | {seed} | {source} | {entropy:.2g} | {np.mean(returns):.1f} | "
-                f"{'yes' if entropy < COLLAPSED else 'no'} |"
+                f"{'yes' if is_collapsed else 'no'} |"
             )
         counts[look] = (collapsed, done)
     lines += [""] + [f"- `{k}`: {c} of {n} seeds collapsed" for k, (c, n) in counts.items()]
@@ -130,7 +125,7 @@ def table() -> str:
             theirs = [[r[k] for k in keys] for r in study]
             same = "identical to" if mine == theirs else "DIFFERENT from"
             lines.append(f"- `{look}` seed 1's {len(mine)} iterations: {same} the study's run's")
-    lines += ["", f"Command (`full`, seed 1): `python {' '.join(command('full', 1)[1:])}`"]
+    lines += ["", f"Command (`full`, seed 1): `{' '.join(command('full', 1))}`"]
     return "\n".join(lines) + "\n"
 
 

@@ -359,10 +359,11 @@ def _drop(own: float, held: float) -> str:
     """How far the held-out score falls below the in-distribution one."""
     if math.isnan(own) or math.isnan(held):
         return "— (not run yet)"
+    share = ""
     if held <= 0:
         share = "; held out at or below the random policy"
-    else:
-        share = f"; keeps {held / own:.0%}" if own > 0 else ""
+    elif own > 0:
+        share = f"; keeps {held / own:.0%}"
     return f"{held - own:+.2f} ({own:.2f} → {held:.2f}{share})"
 
 
