@@ -15,7 +15,8 @@ Every run evaluates during training as the published curves are read (10 episode
 the policy, never mixed with exploration, every 2,000 samples; box-pushing reference §8-§9), and
 the table gives each seed's value at half its budget and at its budget, samples on maopg's
 counter (100K and 200K on the grid; the mean of its last 5 evaluations at or before T) and how
-many seeds reach the issue's target there (≥ 290: the big box; both small boxes are worth 39.6).
+many seeds reach the issue's target there (≥ 290: the big box; both small boxes are worth 39.6);
+below it, ``td8-explore`` read as the issue's second target reads (:func:`team_target`).
 ``probe`` looks at what each seed's final policy does where the big box is decided: along the
 scripted episode (both robots to the big box, then both push), the probability the policy gives
 the scripted joint option at each decision point, and the joint option it prefers there.
@@ -24,6 +25,7 @@ the scripted joint option at each decision point, and the joint option it prefer
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -36,7 +38,8 @@ from pilot_runs import setting_text, train_runs
 from maopg.env.rollout import scripted_policy
 from maopg.experiment.evaluation.loading import load_trained
 from maopg.experiment.studies.published import value_at
-from maopg.experiment.studies.runs import load_run
+from maopg.experiment.studies.results import normalising_levels
+from maopg.experiment.studies.runs import final, load_run
 from maopg.policy import ObsBatch, stack_conditions
 
 ROOT = Path("results/exploration/pilots")
@@ -271,7 +274,54 @@ def table() -> str:
         for name in PILOTS
     ]
     said = "Commands (seed 0; the other seeds differ in `--seed` and `--run-dir`):"
-    return "\n".join([*lines, "", said, *commands])
+    return "\n".join([*lines, *team_target(), "", said, *commands])
+
+
+TEAM_PILOT = "td8-explore"
+TEAM_REFERENCE = Path("results/teams-canonical/reference.json")
+"""The random and scripted teams of eight at the ``teams-canonical`` study's settings (100
+episodes each), the scale of the issue's second target."""
+TEAM_TARGET = 0.8
+"""The issue's second target: the normalised score, the mean over 3 seeds."""
+
+
+def team_target() -> list[str]:
+    """The issue's second target as it reads: each finished seed of :data:`TEAM_PILOT`, its
+    mean training-episode return over the final 10 % of its samples, normalised against
+    :data:`TEAM_REFERENCE` (whose team is checked to be the pilot's), and their mean."""
+    pilot = PILOTS[TEAM_PILOT]
+    runs = [
+        load_run(run_dir(TEAM_PILOT, seed))
+        for seed in pilot.seeds
+        if (run_dir(TEAM_PILOT, seed) / "done.json").exists()
+    ]
+    if not runs:
+        return []
+    reference = json.loads(TEAM_REFERENCE.read_text())
+    team = {
+        key.split(".", 1)[1]: value
+        for key, value in pilot.settings.items()
+        if key.startswith("env.")
+    }
+    if reference["key"]["settings"][pilot.task] != team:
+        raise SystemExit(f"{TEAM_REFERENCE} is not the team of {TEAM_PILOT}: {team}")
+    random, scripted = normalising_levels(reference["results"])[pilot.task]
+    scores = [(final(run) - random) / (scripted - random) for run in runs]
+    each = ", ".join(
+        f"seed {run.seed} {final(run):.1f} ({score:.2f})"
+        for run, score in zip(runs, scores, strict=True)
+    )
+    mean = float(np.mean(scores))
+    verdict = "met" if len(runs) == len(pilot.seeds) and mean >= TEAM_TARGET else "not met"
+    if len(runs) < len(pilot.seeds):
+        verdict = f"{len(runs)} of {len(pilot.seeds)} seeds in"
+    return [
+        "",
+        f"`{TEAM_PILOT}`, the second target (normalised score ≥ {TEAM_TARGET} over the final "
+        f"10 % of {pilot.total_samples:,} samples, {len(pilot.seeds)} seeds; random "
+        f"{random:.1f}, scripted {scripted:.1f}, `{TEAM_REFERENCE}`): final return "
+        f"(normalised) {each}; mean normalised {mean:.2f}: {verdict}.",
+    ]
 
 
 def probe(name: str, seed: int) -> list[str]:
