@@ -304,11 +304,11 @@ def test_existing_run_needs_resume_and_corrupt_checkpoint_is_named(tmp_path, use
     user_error(main, ["--resume", "--run-dir", str(run_dir), "--seed", "9"], r"seed \(saved 0")
 
 
-@pytest.mark.parametrize("method", ["async", "mac-dqn", "partial-rnn"])
+@pytest.mark.parametrize("method", ["async", "mac-dqn", "partial-rnn", "acac", "mac-iaicc"])
 def test_video_of_the_trained_policy(tmp_path, method):
     """``video=true`` leaves the seed-0 episode of the policy saved in ``final.pt``, sampled as
     in training (``video_sample=false``: greedy); a recurrent policy's too (its actor carries
-    the GRU states through the episode)."""
+    the GRU states through the episode), the literature's agent-centric actors' included."""
     run_dir = tmp_path / method
     args = ["--total-samples", "60", "--run-dir", str(run_dir), *tiny(method)]
     main([*args, "video=true", "env.max_ticks=30"])

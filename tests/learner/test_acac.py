@@ -2,6 +2,7 @@
 time embedding, the asynchronous (event) GAE, the agent-centric memories that advance only at
 their own agent's decisions, the critic's inputs there, PopArt, ε-mixing and the round."""
 
+import dataclasses
 import math
 
 import numpy as np
@@ -209,3 +210,71 @@ def test_from_cameras_each_agent_reads_its_own_image():
         assert not torch.equal(learner.policy.inputs[0].cnn.convs[0].weight, before)
     finally:
         envs.close()
+
+
+def _interleaved(learner: ACACLearner, envs: SeededVectorEnv):
+    """One collected episode cut to four steps whose decisions interleave as asynchronous
+    options make them: both agents choose at the start (tick 0), agent 1 alone at tick 2, agent
+    0 alone at tick 3, agent 1 alone at tick 5, and the episode ends at tick 6 in a terminal
+    state; the continuing agent keeps the option it runs."""
+    batch, _, _ = learner.collect(envs, 0.5)
+    rows = slice(0, 5)
+    choosing = torch.tensor([[1, 1], [0, 1], [1, 0], [0, 1], [1, 1]], dtype=torch.bool)
+    joint = batch.joint[rows, :1].clone()
+    running = torch.full((5, 1, 2), -1, dtype=torch.long)
+    for t in range(1, 5):
+        for i in range(2):
+            if not choosing[t, i]:
+                running[t, 0, i] = joint[t, 0, i] = joint[t - 1, 0, i]
+    rewards = np.array([[-0.2], [-0.1], [-0.2], [299.9], [0.0]])
+    return dataclasses.replace(
+        batch,
+        obs=batch.obs[torch.arange(5)],
+        choosing=choosing.unsqueeze(1),
+        running=running,
+        available=torch.ones(5, 1, 16, dtype=torch.bool),  # 8 options an agent
+        joint=joint,
+        reward=rewards,
+        reward_sum=rewards,
+        duration=np.array([[2], [1], [2], [1], [1]]),  # the final point: filler
+        terminated=np.array([True]),
+        length=np.array([4]),
+    )
+
+
+def test_interleaved_decisions_share_each_points_advantage_and_each_actor_reads_its_own(
+    envs, monkeypatch
+):
+    """The asynchronous GAE on an episode whose agents decide at different ticks, worked by
+    hand (γ = 0.98, λ = 0.95, the target critic's values V = 1, 2, 3, 4 at the four steps):
+    δ_t = R_t + γ^k_t V_{t+1} − V_t with k_t the ticks to the next decision point (the
+    terminal's value 0), A_t = δ_t + γ^k_t λ A_{t+1}: one advantage per decision point, whoever
+    chose there. The first update's surrogate (ratio 1: old and new weights alike) is then, for
+    each actor, minus the mean advantage over its own decisions only: agent 0's at ticks 0 and
+    3, agent 1's at ticks 0, 2 and 5."""
+    learner = _learner(envs, episodes_per_update=1, train_repeat=1)
+    batch = _interleaved(learner, envs)
+    values = torch.tensor([[1.0], [2.0], [3.0], [4.0], [5.0]])
+    monkeypatch.setattr(learner, "_values", lambda critic, batch: values)
+    monkeypatch.setattr(learner.target.value_head, "denormalize", lambda v: v)
+    g, lam = 0.98, 0.95
+    d3 = 299.9 + 0.0 - 4.0
+    d2 = -0.2 + g**2 * 4.0 - 3.0
+    d1 = -0.1 + g**1 * 3.0 - 2.0
+    d0 = -0.2 + g**2 * 2.0 - 1.0
+    a3 = d3
+    a2 = d2 + g**2 * lam * a3
+    a1 = d1 + g**1 * lam * a2
+    a0 = d0 + g**2 * lam * a1
+    advantages, returns = learner.advantages(batch)
+    assert advantages[:4, 0] == pytest.approx([a0, a1, a2, a3])
+    assert returns[:4, 0] == pytest.approx([a0 + 1.0, a1 + 2.0, a2 + 3.0, a3 + 4.0])
+
+    losses: dict[int, float] = {}
+    monkeypatch.setattr(learner, "step_critic", lambda loss: None)
+    monkeypatch.setattr(
+        learner, "step_actors", lambda got: losses.update({i: v.item() for i, v in got.items()})
+    )
+    learner.update(batch, 0.5)
+    assert losses[0] == pytest.approx(-(a0 + a2) / 2, rel=1e-5)
+    assert losses[1] == pytest.approx(-(a0 + a1 + a3) / 3, rel=1e-5)
