@@ -20,6 +20,7 @@ from maopg.experiment.studies.leaderboard import (
     Board,
     Entry,
     aggregate_table,
+    headline_table,
     reproduce_leaderboard,
 )
 from maopg.experiment.studies.stats import iqm
@@ -48,6 +49,12 @@ def test_the_boards_are_the_issues_tasks_at_their_studies_settings():
                 get_study(board.study).overrides
             ).get("total_samples")
             assert method in get_study(home).methods or method in get_study(home).baselines
+    # the Box Pushing tasks' training defaults explore for the MAPPO family, and the label says so
+    by_name = {b.name: b for b in BOARDS}
+    for name in ("box_pushing_grid_6", "box_pushing"):
+        assert by_name[name].tuning_of("async") == "maopg defaults, the grid's exploration"
+        assert by_name[name].tuning_of("mac-dqn") == "maopg defaults"
+    assert by_name["tool_delivery"].tuning_of("async") == "maopg defaults"
 
 
 def test_the_literature_methods_take_their_few_episode_settings_off_box_pushing(tmp_path):
@@ -84,7 +91,7 @@ def _entry(board: str, method: str, seed: int, score: float) -> Entry:
     return Entry(board, method, seed, score * 100, score, math.nan, True)
 
 
-def test_the_aggregate_is_the_iqm_over_a_methods_boards_and_the_shared_ones():
+def test_the_aggregate_is_the_iqm_over_a_methods_boards():
     boards = [Board("a", "paper", "tool_delivery", ("x", "y")), Board("b", "paper", "x", ("x",))]
     rows = [_entry("a", "x", s, v) for s, v in enumerate((0.0, 1.0, 2.0, 3.0))]
     rows += [_entry("b", "x", s, v) for s, v in enumerate((10.0, 10.0))]
@@ -93,10 +100,32 @@ def test_the_aggregate_is_the_iqm_over_a_methods_boards_and_the_shared_ones():
     # x over its two boards: IQM of (0, 1, 2, 3, 10, 10) = mean(2, 3, 10) ... a quarter is 1.
     assert iqm(np.array([0.0, 1.0, 2.0, 3.0, 10.0, 10.0])) == pytest.approx(4.0)
     assert table[2].startswith("| x | 2 | 4.00 [")
-    # On the one board both share (a): x's IQM of (0, 1, 2, 3) is 1.5; y's is 0.5 exactly.
-    assert "| 1.50 [" in table[2]
-    assert table[3] == "| y | 1 | 0.50 [0.50, 0.50] | 0.50 [0.50, 0.50] |"
-    assert table[-1] == "Shared boards: a."
+    assert table[3] == "| y | 1 | 0.50 [0.50, 0.50] |"
+
+
+def test_the_headline_sets_the_papers_policy_against_the_literatures_on_the_boards_all_share():
+    """The paper's policy is ``async`` where a board ranks it and ``async-ar`` on a team board;
+    a board where one of the three has no runs is left out of the comparison and named."""
+    methods = ("async", "async-ar", *AGENT_METHODS)
+    boards = [
+        Board("small", "paper", "tool_delivery", methods),
+        Board("team", "teams", "tool_delivery", methods[1:]),
+        Board("new", "paper", "water_filling", methods),
+    ]
+    rows = [_entry("small", "async", s, v) for s, v in enumerate((0.9, 1.0))]
+    rows += [_entry("small", "async-ar", s, 0.0) for s in range(2)]  # not the headline's
+    rows += [_entry("team", "async-ar", s, v) for s, v in enumerate((0.2, 0.4))]
+    rows += [_entry(b, m, s, 0.5) for b in ("small", "team") for m in AGENT_METHODS for s in (0, 1)]
+    rows += [_entry("new", "async", 0, 1.0)]
+    table = headline_table(boards, rows).splitlines()
+    assert table[0] == (
+        "|  | IQM normalised, the 2 boards all three share [95 % CI] | small | team |"
+    )
+    # the paper's policy: IQM of (0.2, 0.4, 0.9, 1.0) = mean(0.4, 0.9)
+    assert table[2].startswith("| the paper's policy | 0.65 [")
+    assert table[2].endswith("| 0.95 (`async`) | 0.30 (`async-ar`) |")
+    assert table[3] == "| acac | 0.50 [0.50, 0.50] | 0.50 | 0.50 |"
+    assert table[-1] == "Boards where one of the three has no runs yet: new."
 
 
 def test_a_tiny_leaderboard_trains_what_no_study_runs_and_reads_the_rest(tmp_path, monkeypatch):
@@ -137,8 +166,8 @@ def test_a_tiny_leaderboard_trains_what_no_study_runs_and_reads_the_rest(tmp_pat
     ]
     assert all(r["samples_to_threshold"] != "nan" for r in scores)  # −1000: reached at once
     text = (tmp_path / "lb/tables.md").read_text()
-    assert "| async | maopg defaults |" in text and "| sync-cut | - | 2 |" in text
-    assert "Shared boards: td." in text
+    assert "| async | maopg defaults | 2 | 2K |" in text and "| sync-cut | - | 2 | 2K |" in text
+    assert "Boards where one of the three has no runs yet: td." in text  # no acac, mac-iaicc
     # A second call trains nothing and writes the same tables.
     again, _ = reproduce_leaderboard(
         tmp_path / "lb", boards=[board], in_process=True, reference_episodes=2, log=lambda _: None

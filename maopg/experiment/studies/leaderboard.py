@@ -17,12 +17,13 @@ whose trailing mean over 5 logged iterations reaches the board's threshold. Its 
 score** is ``(R − R_random) / (R_scripted − R_random)`` against the uniform-random and scripted
 policies measured at the board's settings (0: random, 1: the scripted heuristic).
 
-Per board: each method's mean final return and normalised score with a percentile bootstrap
-95 % interval over its seeds, its samples to threshold over the seeds that reach it, and every
-seed's outcome. Across boards: each method's interquartile mean of normalised scores with a
-stratified bootstrap interval (every board's seeds resampled within the board), over the boards
-it runs on and over the boards every ranked method shares, and a performance profile (the share
-of runs scoring above each τ): Agarwal et al., NeurIPS 2021.
+Per board: each method's budget, mean final return and normalised score with a percentile
+bootstrap 95 % interval over its seeds, its samples to threshold over the seeds that reach it,
+and every seed's outcome. Across boards: each method's interquartile mean of normalised scores
+with a stratified bootstrap interval (every board's seeds resampled within the board) over the
+boards it runs on; the paper's conditional policy against the literature's methods over the
+boards all three share (:data:`HEADLINE`: the issue's question, asked on equal terms); and a
+performance profile (the share of runs scoring above each τ): Agarwal et al., NeurIPS 2021.
 """
 
 from __future__ import annotations
@@ -34,6 +35,8 @@ from pathlib import Path
 
 import numpy as np
 
+from maopg.experiment.run.config import task_learner_defaults
+from maopg.experiment.run.methods import get_method, method_names
 from maopg.experiment.studies.builtin import (
     ACAC_COLLECTION,
     BOX_PUSHING_METHODS,
@@ -78,6 +81,13 @@ TEAM_METHODS = ("async-ar", "partial-ar", "sync-cut-ar")
 """The factored forms of the paper's methods that fit a team of eight (the product
 categorical's 15.3M joint options do not: the ``teams`` study)."""
 
+CONDITIONAL = ("async", "async-ar")
+"""The paper's conditional centralized policy on a board: its product categorical (``async``)
+where the board ranks it, else its autoregressive form (``async-ar``: the teams of eight, where
+the product's head is refused)."""
+HEADLINE = ("the paper's policy", "acac", "mac-iaicc")
+"""The rows of the headline comparison: :data:`CONDITIONAL` against the literature's methods."""
+
 TUNING: Mapping[str, str] = {
     **dict.fromkeys((*PAPER_METHODS, *TEAM_METHODS), "maopg defaults"),
     "async-rnn": "maopg defaults, memory study's GRU",
@@ -88,10 +98,15 @@ TUNING: Mapping[str, str] = {
 unless a board says otherwise (:attr:`Board.tuning`)."""
 FEW_EPISODES_TUNING = frozen(dict.fromkeys(AGENT_METHODS, "few-episode settings"))
 """The label of :data:`~maopg.experiment.studies.builtin.FEW_EPISODES` beside its rows."""
+EXPLORED = "the grid's exploration"
+"""Added to the label of the methods that explore by the Box Pushing tasks' training defaults."""
 TUNING_NOTE = (
     "Tuning: *maopg defaults* — one set of settings for every task, chosen on Tool Delivery and "
     "Water Filling in the paper's reproduction, no per-task tuning; *memory study's GRU* — "
-    "those plus the option history and layer norm the memory study found the GRU needs; *ACAC "
+    "those plus the option history and layer norm the memory study found the GRU needs; "
+    f"*{EXPLORED}* — on Box Pushing, the tasks' training defaults: ε-mixed sampling over the "
+    "joint option on ACAC's schedule, the best of the exploration pilots on the 6x6 grid "
+    "(`bench/analysis/exploration_pilots.py`, docs/results/exploration.md); *ACAC "
     "published* — ACAC's published Box Pushing settings (box-pushing reference §10) with its "
     "32 environments and γ 0.98, no tuning here; *MacroMARL scripts* — Mac-IAICC's settings "
     "in MacroMARL's Box Pushing scripts (32 environments, γ 0.98, each size's target and ε "
@@ -99,7 +114,11 @@ TUNING_NOTE = (
     "hundreds of episodes, not the tens of thousands those settings are made for: ACAC "
     "updated as maopg's PPO and Mac-IAICC as MacroMARL's Warehouse scripts, each with ε "
     "falling over 50 episodes, chosen by pilots on Tool Delivery "
-    "(`maopg.experiment.studies.builtin.FEW_EPISODES`)."
+    "(`bench/analysis/few_episode_pilots.py`, "
+    "`maopg.experiment.studies.builtin.FEW_EPISODES`). Budget: the samples (maopg's counter: "
+    "every simulated tick) a method's runs trained; on Box Pushing ACAC's and MacroMARL's runs "
+    "go on until their published counter (finished training episodes' ticks) passes the "
+    "board's, the budget their published curves are read at."
 )
 """What each :data:`TUNING` label means."""
 
@@ -122,8 +141,15 @@ class Board:
     """Method → how its settings were chosen on this board, where not :data:`TUNING`'s."""
 
     def tuning_of(self, method: str) -> str:
-        """The tuning label beside ``method``'s row (:data:`TUNING_NOTE`)."""
-        return self.tuning.get(method, TUNING.get(method, "—"))
+        """The tuning label beside ``method``'s row (:data:`TUNING_NOTE`), with
+        :data:`EXPLORED` where the task's training defaults set the method's exploration."""
+        label = self.tuning.get(method, TUNING.get(method, "—"))
+        if method in method_names() and any(
+            key.startswith("explore")
+            for key in task_learner_defaults(self.task, get_method(method).section)
+        ):
+            label += f", {EXPLORED}"
+        return label
 
     def home(self, method: str) -> str | None:
         """The committed study whose runs hold ``method``'s cells, ``None`` for the
@@ -230,6 +256,8 @@ class Entry:
     to_threshold: float
     """Samples to the board's threshold (``nan``: never reached, or no threshold)."""
     finished: bool
+    samples: float = math.nan
+    """The samples the run trained (maopg's counter)."""
 
 
 def board_runs(board: Board, root: Path) -> list[RunData]:
@@ -261,7 +289,10 @@ def entries(
             if threshold is not None
             else math.nan
         )
-        out.append(Entry(board.name, run.method, run.seed, value, score, reached, run.finished))
+        samples = float(run.samples[-1]) if run.samples.size else math.nan
+        out.append(
+            Entry(board.name, run.method, run.seed, value, score, reached, run.finished, samples)
+        )
     return out
 
 
@@ -277,14 +308,22 @@ def _large(value: float) -> str:
     return f"{value / 1000:.0f}K" if abs(value) >= 10_000 else f"{value:.1f}"
 
 
+def _budget(entries: Sequence[Entry]) -> str:
+    """The samples the method's runs trained: the finished runs' (the most of them)."""
+    done = [e.samples for e in entries if e.finished] or [e.samples for e in entries]
+    most = max(done)
+    return f"{most / 1e6:.1f}M" if most >= 1e6 else f"{most / 1e3:.0f}K"
+
+
 def board_table(board: Board, rows: Sequence[Entry]) -> str:
-    """One board: per method its tuning, seeds, final return and normalised score (mean and
-    bootstrap 95 % interval), samples to threshold over the seeds that reach it, every seed."""
+    """One board: per method its tuning, seeds, budget, final return and normalised score (mean
+    and bootstrap 95 % interval), samples to threshold over the seeds that reach it, every
+    seed."""
     table = []
     for method in board.methods:
         mine = sorted((e for e in rows if e.method == method), key=lambda e: e.seed)
         if not mine:
-            table.append([method, board.tuning_of(method), "0", "—", "—", "—", "not run yet"])
+            table.append([method, board.tuning_of(method), "0", "—", "—", "—", "—", "not run yet"])
             continue
         running = sum(not e.finished for e in mine)
         seeds = f"{len(mine)}" + (f" ({running} running)" if running else "")
@@ -299,6 +338,7 @@ def board_table(board: Board, rows: Sequence[Entry]) -> str:
                 method,
                 board.tuning_of(method),
                 seeds,
+                _budget(mine),
                 mean_interval([e.final_return for e in mine], "{:.1f}".format),
                 mean_interval([e.score for e in mine], "{:.2f}".format),
                 threshold,
@@ -309,6 +349,7 @@ def board_table(board: Board, rows: Sequence[Entry]) -> str:
         "method",
         "tuning",
         "seeds",
+        "budget",
         "final return [95 % CI]",
         "normalised [95 % CI]",
         "samples to threshold [95 % CI] (seeds)",
@@ -317,35 +358,60 @@ def board_table(board: Board, rows: Sequence[Entry]) -> str:
     return markdown_table(header, table)
 
 
+def _interval(scores: Sequence[np.ndarray]) -> str:
+    """The IQM of per-board score arrays with its stratified bootstrap 95 % interval."""
+    low, high = stratified_bootstrap_interval(scores)
+    return f"{iqm(np.concatenate(scores)):.2f} [{low:.2f}, {high:.2f}]"
+
+
+def _scores(rows: Sequence[Entry], board: str, method: str | None) -> np.ndarray:
+    return np.array(
+        [
+            e.score
+            for e in rows
+            if e.board == board and e.method == method and not math.isnan(e.score)
+        ]
+    )
+
+
 def aggregate_table(boards: Sequence[Board], rows: Sequence[Entry]) -> str:
     """Per method: the interquartile mean of its normalised scores with a stratified bootstrap
-    95 % interval, over every board it has runs on and over the boards every method that has
-    runs shares (the only comparison of methods on equal terms)."""
-    methods = list(dict.fromkeys(m for b in boards for m in b.methods))
-    ran = {m: {e.board for e in rows if e.method == m and not math.isnan(e.score)} for m in methods}
-    ranked = [m for m in methods if ran[m]]
-    shared = set.intersection(*(ran[m] for m in ranked)) if ranked else set()
+    95 % interval over every board it has runs on (methods on other boards: not a comparison
+    on equal terms; :func:`headline_table` is one)."""
     table = []
-    for method in ranked:
-        cells = [method, str(len(ran[method]))]
-        for chosen in (ran[method], shared):
-            scores = [
-                np.array([e.score for e in rows if e.method == method and e.board == b])
-                for b in sorted(chosen)
-            ]
-            if not scores:
-                cells.append("—")
-                continue
-            low, high = stratified_bootstrap_interval(scores)
-            cells.append(f"{iqm(np.concatenate(scores)):.2f} [{low:.2f}, {high:.2f}]")
+    for method in dict.fromkeys(m for b in boards for m in b.methods):
+        scores = [got for b in boards if (got := _scores(rows, b.name, method)).size]
+        if scores:
+            table.append([method, str(len(scores)), _interval(scores)])
+    return markdown_table(["method", "boards", "IQM normalised, its boards [95 % CI]"], table)
+
+
+def headline_table(boards: Sequence[Board], rows: Sequence[Entry]) -> str:
+    """The paper's conditional centralized policy (:data:`CONDITIONAL`: ``async``, or
+    ``async-ar`` where a board does not rank the product) against ACAC and Mac-IAICC on the
+    boards where all three have runs: the IQM of normalised scores with a stratified bootstrap
+    95 % interval, and each board's mean score."""
+
+    def method_on(board: Board, row: str) -> str | None:
+        if row != HEADLINE[0]:
+            return row if row in board.methods else None
+        return next((m for m in CONDITIONAL if m in board.methods), None)
+
+    scores = {
+        row: {b.name: (method_on(b, row), _scores(rows, b.name, method_on(b, row))) for b in boards}
+        for row in HEADLINE
+    }
+    shared = [b.name for b in boards if all(scores[row][b.name][1].size for row in HEADLINE)]
+    table = []
+    for row in HEADLINE:
+        cells = [row, _interval([scores[row][b][1] for b in shared]) if shared else "—"]
+        for board in shared:
+            method, got = scores[row][board]
+            cells.append(f"{got.mean():.2f}" + (f" (`{method}`)" if row == HEADLINE[0] else ""))
         table.append(cells)
-    header = [
-        "method",
-        "boards",
-        "IQM normalised, its boards [95 % CI]",
-        f"IQM normalised, the {len(shared)} shared boards [95 % CI]",
-    ]
-    note = f"\nShared boards: {', '.join(sorted(shared)) or 'none yet'}.\n"
+    header = ["", f"IQM normalised, the {len(shared)} boards all three share [95 % CI]", *shared]
+    missing = [b.name for b in boards if b.name not in shared]
+    note = f"\nBoards where one of the three has no runs yet: {', '.join(missing) or 'none'}.\n"
     return markdown_table(header, table) + note
 
 
@@ -433,7 +499,9 @@ def reproduce_leaderboard(
         "bootstrap 95 % over seeds (10,000 resamples); across boards: the interquartile mean "
         "with a stratified bootstrap interval (Agarwal et al., NeurIPS 2021). "
         + TUNING_NOTE
-        + "\n\n## Across boards\n\n"
+        + "\n\n## The paper's policy against the literature's\n\n"
+        + headline_table(chosen, rows)
+        + "\n## Across boards\n\n"
         + aggregate_table(chosen, rows)
         + "\n"
         "![performance profile](performance_profile.png)\n\n" + "\n\n".join(sections) + "\n"
@@ -463,10 +531,10 @@ def _about(board: Board, levels: tuple[float, float] | None, episodes: int) -> s
 
 def _write_scores(rows: Sequence[Entry], path: Path) -> Path:
     """Every run's figures, one line each, for other tools."""
-    lines = ["board,method,seed,final_return,normalised,samples_to_threshold,finished"]
+    lines = ["board,method,seed,final_return,normalised,samples_to_threshold,finished,samples"]
     lines += [
         f"{e.board},{e.method},{e.seed},{e.final_return:.4f},{e.score:.4f},"
-        f"{e.to_threshold:.0f},{int(e.finished)}"
+        f"{e.to_threshold:.0f},{int(e.finished)},{e.samples:.0f}"
         for e in rows
     ]
     path.write_text("\n".join(lines) + "\n")
