@@ -89,6 +89,28 @@ def test_ray_rollouts_equal_local_ones(local_trace, actors, direct):
         envs.close()
 
 
+@pytest.mark.parametrize(
+    "config",
+    [
+        EnvConfig(task="box_pushing_grid", strategy="continue"),
+        EnvConfig(task="box_pushing", strategy="continue", images=True),
+    ],
+    ids=["grid", "mujoco-rgb"],
+)
+def test_box_pushing_rolls_out_alike_on_every_backend(config):
+    """Both Box Pushing tasks, the grid and the task in MuJoCo from its cameras: the same
+    random rollouts in this process, on threads, in ``spawn``ed worker processes and in Ray
+    actors (every outcome's fingerprint: observations, images, conditions and ticks)."""
+    traces = {}
+    for backend, workers in (("local", 0), ("threads", 2), ("processes", 2), ("ray", 2)):
+        envs = SeededVectorEnv(config, num_envs=2, seed=4, backend=backend, num_workers=workers)
+        try:
+            traces[backend] = _trace(envs, 10)
+        finally:
+            envs.close()
+    assert all(trace == traces["local"] for trace in traces.values())
+
+
 class _Planted:
     """A pickle that, if loaded, leaves a file behind: what a stranger could send."""
 
