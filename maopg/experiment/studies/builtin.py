@@ -257,7 +257,8 @@ def _box_pushing_grid(size: int) -> Study:
     Mac-IAICC's 1.5M about 10 (2,470 samples/s): 2.7 CPU-hours a size more. An evaluation is a
     small share of that: 10 episodes of at most 100 ticks on one environment, cheaper per tick
     than training (20K samples took as long with evaluation as without, within the noise of a
-    shared machine)."""
+    shared machine). What the finished runs took on the shared machine, and what the cells
+    left would take at that rate, ``bench/analysis/study_cost.py`` prints."""
     return Study(
         f"box-pushing-{size}",
         f"async, partial, async-rnn, mac-dqn, acac and mac-iaicc on the {size}x{size} Box "
