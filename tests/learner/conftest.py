@@ -8,7 +8,8 @@ from collections.abc import Callable
 import pytest
 import torch
 
-from maopg.learner import MAPPO, TrainBatch
+from maopg.env.vector import SeededVectorEnv
+from maopg.learner import MAPPO, LearnerSetup, TrainBatch
 
 
 @pytest.fixture
@@ -39,3 +40,24 @@ def update_both_ways() -> Callable[[Callable[[], MAPPO], TrainBatch], tuple[dict
         return results["threads"], results["inline"]
 
     return run
+
+
+@pytest.fixture
+def setup_for() -> Callable[[SeededVectorEnv, object], LearnerSetup]:
+    """``setup_for(envs, config)``: what the round learners' tests (ACAC, Mac-IAICC) build a
+    learner on: ``envs``' team, small networks, γ 0.98, seeded sampling."""
+
+    def make(envs: SeededVectorEnv, config: object) -> LearnerSetup:
+        return LearnerSetup(
+            spec=envs.spec,
+            config=config,
+            num_envs=envs.num_envs,
+            batch_ticks=1,
+            gamma=0.98,
+            hidden=32,
+            layers=2,
+            sample_gen=torch.Generator().manual_seed(1),
+            update_gen=torch.Generator(),
+        )
+
+    return make

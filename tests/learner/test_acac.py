@@ -10,7 +10,7 @@ import pytest
 import torch
 
 from maopg.env.vector import EnvConfig, SeededVectorEnv
-from maopg.learner import ACACConfig, ACACLearner, LearnerSetup, compute_gae
+from maopg.learner import ACACConfig, ACACLearner, compute_gae
 from maopg.policy import ObsBatch, stack_conditions
 from maopg.policy.agent_centric import (
     AgentCentricCritic,
@@ -31,21 +31,10 @@ def envs():
     envs.close()
 
 
-def _learner(envs: SeededVectorEnv, **settings) -> ACACLearner:
+def _learner(setup_for, envs: SeededVectorEnv, **settings) -> ACACLearner:
     torch.manual_seed(0)
     config = ACACConfig(**settings)
-    setup = LearnerSetup(
-        spec=envs.spec,
-        config=config,
-        num_envs=envs.num_envs,
-        batch_ticks=1,
-        gamma=0.98,
-        hidden=32,
-        layers=2,
-        sample_gen=torch.Generator().manual_seed(1),
-        update_gen=torch.Generator(),
-    )
-    return ACACLearner(AgentCentricPolicy(envs.spec, width=config.width), setup)
+    return ACACLearner(AgentCentricPolicy(envs.spec, width=config.width), setup_for(envs, config))
 
 
 def test_the_time_embedding_reads_the_tick_an_observation_came_at():
@@ -103,11 +92,11 @@ def test_an_agents_memory_advances_only_at_its_own_decisions(envs):
     assert torch.equal(fresh, zeroed)
 
 
-def test_the_critic_reads_each_agents_latest_encoding_along_an_episode(envs):
+def test_the_critic_reads_each_agents_latest_encoding_along_an_episode(setup_for, envs):
     """``scan`` over a collected round's points gives, at every point, the value that stepping
     the critic point by point gives: each agent's token is its encoder's state after its own
     latest decision."""
-    learner = _learner(envs, episodes_per_update=2)
+    learner = _learner(setup_for, envs, episodes_per_update=2)
     batch, _, _ = learner.collect(envs, 0.5)
     critic = learner.critic
     with torch.no_grad():
@@ -141,8 +130,8 @@ def test_popart_keeps_every_output_while_its_statistics_move():
     assert std > 1.0
 
 
-def test_a_round_trains_on_the_last_finished_episodes_and_counts_them(envs):
-    learner = _learner(envs, episodes_per_update=3)
+def test_a_round_trains_on_the_last_finished_episodes_and_counts_them(setup_for, envs):
+    learner = _learner(setup_for, envs, episodes_per_update=3)
     batch, finished, ticks = learner.collect(envs, 1.0)
     assert len(finished) >= 3 and batch.choosing.shape[1] == 3
     assert ticks >= sum(e["ticks"] for e in finished)  # unfinished episodes' ticks count too
@@ -160,10 +149,10 @@ def test_a_round_trains_on_the_last_finished_episodes_and_counts_them(envs):
     assert learner.config.exploration(10**6) == pytest.approx(0.01)
 
 
-def test_at_full_exploration_the_ratio_is_one_whatever_the_actors_say(envs):
+def test_at_full_exploration_the_ratio_is_one_whatever_the_actors_say(setup_for, envs):
     """ε = 1: every choosing agent draws uniformly, old and new probabilities are the
     uniform's whatever the weights, so the surrogate's ratio is exactly 1."""
-    learner = _learner(envs, episodes_per_update=2)
+    learner = _learner(setup_for, envs, episodes_per_update=2)
     batch, _, _ = learner.collect(envs, 1.0)
     old, _ = learner.agent_log_probs(batch, 1.0)
     for parameter in learner.policy.parameters():
@@ -175,10 +164,10 @@ def test_at_full_exploration_the_ratio_is_one_whatever_the_actors_say(envs):
         assert torch.allclose(new[i][deciding[..., i]], torch.tensor(-math.log(8)))
 
 
-def test_an_update_moves_only_the_actors_of_agents_that_decided(envs):
+def test_an_update_moves_only_the_actors_of_agents_that_decided(setup_for, envs):
     """Each actor's loss reads its own decisions only: an agent masked out of every decision
     of the batch keeps its weights, the other's change."""
-    learner = _learner(envs, episodes_per_update=2)
+    learner = _learner(setup_for, envs, episodes_per_update=2)
     batch, _, _ = learner.collect(envs, 0.3)
     batch.choosing[..., 1] = False
     batch.running[..., 1] = batch.running[..., 1].clamp(min=0)  # a continuing agent's option
@@ -190,7 +179,7 @@ def test_an_update_moves_only_the_actors_of_agents_that_decided(envs):
     assert any(not torch.equal(a, b) for a, b in zip(moved, changed, strict=True))
 
 
-def test_from_cameras_each_agent_reads_its_own_image():
+def test_from_cameras_each_agent_reads_its_own_image(setup_for):
     """From RGB (Tool Delivery, three robots of two kinds): each actor and critic encoder has a
     CNN of its own over its agent's camera, and a round and an update run through them."""
     config = EnvConfig(
@@ -199,7 +188,7 @@ def test_from_cameras_each_agent_reads_its_own_image():
     envs = SeededVectorEnv(config, num_envs=2, seed=0)
     try:
         envs.reset()
-        learner = _learner(envs, episodes_per_update=1)
+        learner = _learner(setup_for, envs, episodes_per_update=1)
         assert all(net.cnn is not None for net in learner.policy.inputs)
         assert all(net.cnn is not None for net in learner.critic.inputs)
         batch, finished, _ = learner.collect(envs, 0.5)
@@ -243,7 +232,7 @@ def _interleaved(learner: ACACLearner, envs: SeededVectorEnv):
 
 
 def test_interleaved_decisions_share_each_points_advantage_and_each_actor_reads_its_own(
-    envs, monkeypatch
+    setup_for, envs, monkeypatch
 ):
     """The asynchronous GAE on an episode whose agents decide at different ticks, worked by
     hand (γ = 0.98, λ = 0.95, the target critic's values V = 1, 2, 3, 4 at the four steps):
@@ -252,7 +241,7 @@ def test_interleaved_decisions_share_each_points_advantage_and_each_actor_reads_
     chose there. The first update's surrogate (ratio 1: old and new weights alike) is then, for
     each actor, minus the mean advantage over its own decisions only: agent 0's at ticks 0 and
     3, agent 1's at ticks 0, 2 and 5."""
-    learner = _learner(envs, episodes_per_update=1, train_repeat=1)
+    learner = _learner(setup_for, envs, episodes_per_update=1, train_repeat=1)
     batch = _interleaved(learner, envs)
     values = torch.tensor([[1.0], [2.0], [3.0], [4.0], [5.0]])
     monkeypatch.setattr(learner, "_values", lambda critic, batch: values)

@@ -9,7 +9,6 @@ import pytest
 import torch
 
 from maopg.env.vector import EnvConfig, SeededVectorEnv
-from maopg.learner import LearnerSetup
 from maopg.learner.mac_iaicc import (
     HistoryCritics,
     MacIAICCConfig,
@@ -59,7 +58,7 @@ def test_each_agents_macro_actions_span_its_own_decisions():
     assert list(second.team_rows) == [1, 2]
 
 
-def test_n_step_targets_sum_n_macro_actions_then_bootstrap_within_each_episode():
+def test_n_step_targets_sum_n_macro_actions_then_bootstrap_within_each_episode(setup_for):
     """Three steps of episode 0 (the last one terminal: bootstrap 0) and two of episode 1 (a
     timeout: its last step bootstraps), worked by hand for n = 1, 2 and 5."""
     reward = np.array([1.0, 2.0, 4.0, 8.0, 16.0])
@@ -93,28 +92,19 @@ def envs():
     envs.close()
 
 
-def _learner(envs: SeededVectorEnv, critic: str) -> MacIAICCLearner:
+def _learner(setup_for, envs: SeededVectorEnv, critic: str) -> MacIAICCLearner:
     torch.manual_seed(0)
     config = MacIAICCConfig(critic=critic, episodes_per_update=2)
-    setup = LearnerSetup(
-        spec=envs.spec,
-        config=config,
-        num_envs=envs.num_envs,
-        batch_ticks=1,
-        gamma=0.98,
-        hidden=32,
-        layers=2,
-        sample_gen=torch.Generator().manual_seed(1),
-        update_gen=torch.Generator(),
-    )
     policy = AgentCentricPolicy(envs.spec, embed_time=False, head_norm=False)
-    return MacIAICCLearner(policy, setup)
+    return MacIAICCLearner(policy, setup_for(envs, config))
 
 
-def test_a_centralized_critic_reads_every_team_point_and_an_own_critic_only_its_agents(envs):
+def test_a_centralized_critic_reads_every_team_point_and_an_own_critic_only_its_agents(
+    setup_for, envs
+):
     """Changing agent 1's observation at a point where only agent 0 chose moves the team
     history critics there, and leaves agent 1's own-history critic where it was."""
-    learner = _learner(envs, "history")
+    learner = _learner(setup_for, envs, "history")
     batch, _, _ = collect_round(
         envs, learner.policy, 1.0, 2, torch.Generator().manual_seed(0), torch.device("cpu")
     )
@@ -140,8 +130,8 @@ def test_a_centralized_critic_reads_every_team_point_and_an_own_critic_only_its_
 
 
 @pytest.mark.parametrize("critic", ["history", "own", "joint"])
-def test_a_round_and_an_update_of_each_sibling(envs, critic):
-    learner = _learner(envs, critic)
+def test_a_round_and_an_update_of_each_sibling(setup_for, envs, critic):
+    learner = _learner(setup_for, envs, critic)
     before = [p.clone() for p in learner.policy.parameters()]
     row, ticks = learner.iteration(envs, 0)
     assert ticks > 0 and row["published_steps"] > 0 and row["epsilon"] == 1.0
@@ -156,7 +146,7 @@ def test_a_round_and_an_update_of_each_sibling(envs, critic):
 
 
 @pytest.mark.parametrize("critic", ["history", "own"])
-def test_from_cameras_the_critics_read_the_images_they_should(critic):
+def test_from_cameras_the_critics_read_the_images_they_should(setup_for, critic):
     """Tool Delivery from RGB: a centralized critic's CNN reads every robot's camera, an own
     critic's its robot's; a round and an update run through them."""
     config = EnvConfig(
@@ -165,7 +155,7 @@ def test_from_cameras_the_critics_read_the_images_they_should(critic):
     envs = SeededVectorEnv(config, num_envs=2, seed=0)
     try:
         envs.reset()
-        learner = _learner(envs, critic)
+        learner = _learner(setup_for, envs, critic)
         assert all(net.cnn is not None for net in learner.critic.inputs)
         before = learner.critic.inputs[0].cnn.convs[0].weight.clone()
         row, _ = learner.iteration(envs, 0)
@@ -177,12 +167,12 @@ def test_from_cameras_the_critics_read_the_images_they_should(critic):
 
 @pytest.mark.parametrize("critic", ["history", "own", "joint"])
 def test_a_target_over_more_macro_actions_than_the_episode_has_is_its_discounted_return(
-    envs, critic
+    setup_for, envs, critic
 ):
     """With ``n_step`` beyond every episode's length, each episode's first target is its
     discounted return (plus the discounted bootstrap where a timeout cut it) on every critic,
     the Naive one's team steps included; with 1 it is the one-step target."""
-    learner = _learner(envs, critic)
+    learner = _learner(setup_for, envs, critic)
     batch, _, _ = collect_round(
         envs, learner.policy, 1.0, 2, torch.Generator().manual_seed(0), torch.device("cpu")
     )

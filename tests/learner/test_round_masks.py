@@ -10,7 +10,7 @@ import pytest
 import torch
 
 from maopg.env.vector import EnvConfig, SeededVectorEnv
-from maopg.learner import ACACConfig, ACACLearner, LearnerSetup
+from maopg.learner import ACACConfig, ACACLearner
 from maopg.learner.mac_iaicc import MacIAICCConfig, MacIAICCLearner
 from maopg.policy.agent_centric import AgentCentricPolicy
 
@@ -21,7 +21,7 @@ LEARNERS = {
 
 
 @pytest.mark.parametrize("method", list(LEARNERS))
-def test_a_round_draws_only_available_options(method):
+def test_a_round_draws_only_available_options(setup_for, method):
     config = EnvConfig(
         task="tool_delivery",
         strategy="continue",
@@ -32,17 +32,7 @@ def test_a_round_draws_only_available_options(method):
         envs.reset()
         learner_class, config_class, policy_settings = LEARNERS[method]
         torch.manual_seed(0)
-        setup = LearnerSetup(
-            spec=envs.spec,
-            config=config_class(episodes_per_update=2),
-            num_envs=envs.num_envs,
-            batch_ticks=1,
-            gamma=0.98,
-            hidden=32,
-            layers=2,
-            sample_gen=torch.Generator().manual_seed(1),
-            update_gen=torch.Generator(),
-        )
+        setup = setup_for(envs, config_class(episodes_per_update=2))
         learner = learner_class(AgentCentricPolicy(envs.spec, **policy_settings), setup)
         batch, _, _ = learner.collect(envs, 0.5)
         counts = [len(agent.option_names) for agent in envs.spec.agents]
