@@ -28,6 +28,16 @@ class DiscountForm(enum.StrEnum):
     OPTION = "option"
 
 
+def falling_epsilon(start: float, end: float, decay: int, count: int) -> float:
+    """The ε of the exploration every learner mixes in (``ppo.explore_*``, ``acac.explore_*``,
+    ``maciaicc.explore_*``): ``start`` falling linearly to ``end`` over ``decay`` units of
+    ``count`` (samples or finished training episodes), ``end`` after; a ``start`` of 0 is no
+    exploration throughout."""
+    if not start:
+        return start
+    return start + min(count / decay, 1.0) * (end - start)
+
+
 @dataclass(frozen=True)
 class PPOConfig(Settings):
     """MAPPO's hyper-parameters: the config section ``ppo`` (defaults: the MAPPO reference,
@@ -139,10 +149,9 @@ class PPOConfig(Settings):
         """ε for a rollout collected after ``samples`` ticks and ``episodes`` finished training
         episodes (``explore_*``)."""
         done = samples if self.explore_unit == "samples" else episodes
-        if self.explore_decay == 0 or self.explore_eps == 0.0:
+        if self.explore_decay == 0:
             return self.explore_eps
-        frac = min(1.0, done / self.explore_decay)
-        return self.explore_eps + frac * (self.explore_eps_end - self.explore_eps)
+        return falling_epsilon(self.explore_eps, self.explore_eps_end, self.explore_decay, done)
 
     def entropy_coef(self, samples: int) -> float:
         """The entropy bonus's weight in the update after ``samples`` ticks (``ent_decay``)."""
@@ -270,10 +279,7 @@ class ACACConfig(Settings):
 
     def exploration(self, episodes: int) -> float:
         """ε after ``episodes`` episodes of the counter."""
-        if not self.explore_eps:
-            return 0.0
-        fraction = min(episodes / self.explore_decay, 1.0)
-        return self.explore_eps + (self.explore_eps_end - self.explore_eps) * fraction
+        return falling_epsilon(self.explore_eps, self.explore_eps_end, self.explore_decay, episodes)
 
 
 CRITICS = ("history", "own", "joint")
@@ -314,7 +320,4 @@ class MacIAICCConfig(Settings):
 
     def exploration(self, episodes: int) -> float:
         """ε after ``episodes`` episodes of the counter."""
-        if not self.explore_eps:
-            return 0.0
-        fraction = min(episodes / self.explore_decay, 1.0)
-        return self.explore_eps + (self.explore_eps_end - self.explore_eps) * fraction
+        return falling_epsilon(self.explore_eps, self.explore_eps_end, self.explore_decay, episodes)
