@@ -79,6 +79,7 @@ def test_every_how_to_page_has_code_to_run():
         assert blocks(page), f"{page.name} has no block that runs"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("page", PAGES, ids=[p.stem for p in PAGES])
 def test_the_pages_blocks_run(page, tmp_path):
     (tmp_path / "blocks.json").write_text(json.dumps(blocks(page)))

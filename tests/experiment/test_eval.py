@@ -547,7 +547,9 @@ def test_grid_skips_finished_runs_and_resumes_unfinished_ones(tmp_path):
     with pytest.raises(ValueError, match="unknown method"):  # a typo is not an empty grid
         run_grid(runs_root, methods=["async", "asnyc"], **grid)
     assert main(["reproduce", "--runs", str(runs_root), "--methods", "asnyc", "--dry-run"]) == 2
-    outcomes, written = reproduce(runs_root, results, methods=["async"], **grid)
+    outcomes, written = reproduce(
+        runs_root, results, methods=["async"], reference_episodes=1, **grid
+    )
     assert outcomes == {
         Cell("tool_delivery", "async", 0): "skipped",
         Cell("tool_delivery", "async", 1): "done",

@@ -2,10 +2,8 @@
 grid and on Tool Delivery each beats a random team it measures, at settings sized for a
 test's budget (each test says which and what it measured)."""
 
-import numpy as np
 import pytest
 
-from maopg.env.rollout import evaluate_reference
 from maopg.experiment.run.config import TrainConfig
 from maopg.experiment.run.directory import read_metrics
 from maopg.experiment.studies.builtin import FEW_EPISODES
@@ -39,7 +37,9 @@ margin over the random team its evaluation must clear (the test below)."""
 
 @pytest.mark.slow
 @pytest.mark.parametrize("method", list(GRID_LEARNERS))
-def test_the_literature_methods_beat_the_random_team_on_the_box_pushing_grid(tmp_path, method):
+def test_the_literature_methods_beat_the_random_team_on_the_box_pushing_grid(
+    tmp_path, method, random_grid4
+):
     """ACAC and Mac-IAICC on 4x4 Box Pushing, 20K samples: the policy each evaluates (sampled,
     no ε, 20 episodes) pushes the small boxes, where a random team averages about 1.6.
 
@@ -50,11 +50,6 @@ def test_the_literature_methods_beat_the_random_team_on_the_box_pushing_grid(tmp
     evaluation (with 32 episodes a round and ε over 2,000 episodes: 1.5, 2.3 and 1.8, no better
     than random)."""
     learner, margin = GRID_LEARNERS[method]
-    settings = {"size": 4}
-    random = [
-        r.ret
-        for r in evaluate_reference("box_pushing_grid", "random", 200, 0, "continue", settings)
-    ]
     evaluated = _evaluations(
         tmp_path,
         task="box_pushing_grid",
@@ -63,10 +58,10 @@ def test_the_literature_methods_beat_the_random_team_on_the_box_pushing_grid(tmp
         total_samples=20_000,
         eval_every=5_000,
         eval_during_episodes=20,
-        env_overrides=settings,
+        env_overrides={"size": 4},
         learner=learner,
     )
-    assert evaluated[-1] > float(np.mean(random)) + margin, (evaluated, np.mean(random))
+    assert evaluated[-1] > random_grid4 + margin, (evaluated, random_grid4)
 
 
 TOOL_DELIVERY_LEARNERS = {"acac": (1, 10_000, 10, 100.0), "mac-iaicc": (1, 30_000, 40, 30.0)}
@@ -78,7 +73,9 @@ clear (the test below)."""
 
 @pytest.mark.slow
 @pytest.mark.parametrize("method", list(TOOL_DELIVERY_LEARNERS))
-def test_the_literature_methods_beat_the_random_team_on_tool_delivery(tmp_path, method):
+def test_the_literature_methods_beat_the_random_team_on_tool_delivery(
+    tmp_path, method, random_tool_delivery
+):
     """ACAC and Mac-IAICC on Tool Delivery (state): the policy each evaluates at the end of its
     budget (sampled, no ε) beats a random team's mean (−57.3 over these 40 episodes) by the
     margin. Measured, seeds 0, 1, 2: ACAC at 10K, 10 episodes, 20.4, 177.5, 134.0 (at 30K
@@ -90,9 +87,6 @@ def test_the_literature_methods_beat_the_random_team_on_tool_delivery(tmp_path, 
     than random (−161, −175, −173): its turtlebots re-chose the one-tick move to where they
     stood, which a young critic's values near 0 make look best when every tick costs."""
     seed, budget, episodes, margin = TOOL_DELIVERY_LEARNERS[method]
-    random_mean = float(
-        np.mean([r.ret for r in evaluate_reference("tool_delivery", "random", 40, seed=0)])
-    )
     settings = {k.split(".", 1)[1]: v for k, v in FEW_EPISODES[method].items()}
     learner = ACACConfig(**settings) if method == "acac" else MacIAICCConfig(**settings)
     evaluated = _evaluations(
@@ -105,4 +99,4 @@ def test_the_literature_methods_beat_the_random_team_on_tool_delivery(tmp_path, 
         eval_during_episodes=episodes,
         learner=learner,
     )
-    assert evaluated[-1] > random_mean + margin, (evaluated, random_mean)
+    assert evaluated[-1] > random_tool_delivery + margin, (evaluated, random_tool_delivery)

@@ -218,6 +218,7 @@ def test_primitive_moves_drive_point_six_metres_per_tick() -> None:
     env.close()
 
 
+@pytest.mark.slow
 def test_reference_returns_over_ten_seeds() -> None:
     scripted = evaluate_reference("tool_delivery", "scripted", episodes=10)
     assert np.mean([r.ret for r in scripted]) >= 230
