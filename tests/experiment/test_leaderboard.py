@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import csv
 import math
+import re
 
 import numpy as np
 import pytest
@@ -167,6 +168,8 @@ def test_a_tiny_leaderboard_trains_what_no_study_runs_and_reads_the_rest(tmp_pat
     assert all(r["samples_to_threshold"] != "nan" for r in scores)  # −1000: reached at once
     text = (tmp_path / "lb/tables.md").read_text()
     assert "| async | maopg defaults | 2 | 2K |" in text and "| sync-cut | - | 2 | 2K |" in text
+    # samples to the threshold in one unit, the mean and its interval alike
+    assert re.search(r"\| \d+\.\dK( \[\d+\.\dK, \d+\.\dK\])? \(2 of 2\) \|", text), text
     assert "Boards where one of the three has no runs yet: td." in text  # no acac, mac-iaicc
     # A second call trains nothing and writes the same tables.
     again, _ = reproduce_leaderboard(

@@ -308,6 +308,11 @@ def _large(value: float) -> str:
     return f"{value / 1000:.0f}K" if abs(value) >= 10_000 else f"{value:.1f}"
 
 
+def _samples(value: float) -> str:
+    """A count of samples in one unit whatever its size: ``8.0K``, ``39.4K``, ``1.20M``."""
+    return f"{value / 1e6:.2f}M" if value >= 1e6 else f"{value / 1e3:.1f}K"
+
+
 def _budget(entries: Sequence[Entry]) -> str:
     """The samples the method's runs trained: the finished runs' (the most of them)."""
     done = [e.samples for e in entries if e.finished] or [e.samples for e in entries]
@@ -328,7 +333,7 @@ def board_table(board: Board, rows: Sequence[Entry]) -> str:
         running = sum(not e.finished for e in mine)
         seeds = f"{len(mine)}" + (f" ({running} running)" if running else "")
         reached = [e.to_threshold for e in mine if not math.isnan(e.to_threshold)]
-        threshold = mean_interval(reached, _large) + f" ({len(reached)} of {len(mine)})"
+        threshold = mean_interval(reached, _samples) + f" ({len(reached)} of {len(mine)})"
         each = ", ".join(
             f"seed{e.seed} {_large(e.final_return)}{' ✓' if not math.isnan(e.to_threshold) else ''}"
             for e in mine
