@@ -414,7 +414,8 @@ def headline_table(boards: Sequence[Board], rows: Sequence[Entry]) -> str:
             method, got = scores[row][board]
             cells.append(f"{got.mean():.2f}" + (f" (`{method}`)" if row == HEADLINE[0] else ""))
         table.append(cells)
-    header = ["", f"IQM normalised, the {len(shared)} boards all three share [95 % CI]", *shared]
+    counted = f"the {len(shared)} boards" if len(shared) != 1 else "the board"
+    header = ["", f"IQM normalised, {counted} all three share [95 % CI]", *shared]
     missing = [b.name for b in boards if b.name not in shared]
     note = f"\nBoards where one of the three has no runs yet: {', '.join(missing) or 'none'}.\n"
     return markdown_table(header, table) + note
