@@ -20,7 +20,7 @@ PY=.venv/bin/python
     perf/policy_scaling perf/compare_checkouts perf/startup perf/backends perf/scale_out \
     perf/wf_bench perf/box_pushing_bench perf/wf_teams perf/cost_to_go perf/lockstep \
     perf/precision perf/method_speed analysis/policy_modes \
-    analysis/learning_td analysis/macdqn_vs_async perf/train_speed_wf; do
+    analysis/learning_td analysis/macdqn_vs_async perf/train_speed_wf analysis/study_cost; do
     echo
     "$PY" "bench/$script.py"
   done

@@ -2,11 +2,11 @@
 and what the cells still to train would take at that rate.
 
 Run: ``.venv/bin/python bench/analysis/study_cost.py [STUDY ...]`` (default: the Box Pushing
-studies). Prints one Markdown table: per study and method, the finished runs, their wall time
-(the ``wall_time`` of a run's last logged row: training, its evaluations and checkpoints, resumed
-runs included, start-up left out) as mean and range in minutes, and the cells not finished with
-the hours they would take at the method's mean (:func:`rows` says where a rate is lent; ``?``:
-no rate to project).
+studies). Prints its BENCHMARKS.md section (``bench/run_all.sh``), one Markdown table: per
+study and method, the finished runs, their wall time (the ``wall_time`` of a run's last logged
+row: training, its evaluations and checkpoints, resumed runs included, start-up left out) as
+mean and range in minutes, and the cells not finished with the hours they would take at the
+method's mean (:func:`rows` says where a rate is lent; ``?``: no rate to project).
 
 The runs shared a 2-core machine with one or two other runs and, at times, tests or
 benchmarks, and were paused while the test suite ran, so the wall time of one run is an upper
@@ -88,6 +88,14 @@ def main() -> None:
         "cells left",
         "hours left at the mean",
     ]
+    print("### What the Box Pushing studies' runs took (`bench/analysis/study_cost.py`)\n")
+    print(
+        "Read from the runs committed under `results/<study>/runs`: the wall time each finished\n"
+        "run logged, on this 2-core machine shared with one or two other runs and paused while\n"
+        "the test suite ran (an upper bound on a run's CPU time), and the hours the cells left\n"
+        "would take at each method's mean (≈: the rate of the same method on another size of the\n"
+        "grid).\n"
+    )
     print("| " + " | ".join(header) + " |")
     print("|" + "---|" * len(header))
     for row in rows(args.studies):

@@ -173,7 +173,10 @@ def test_the_pettingzoo_view_of_the_wrapped_environment(tasks):
     parallel_api_test(OptionParallelEnv(make_env("spread", seed=0)), num_cycles=60)
 
 
+@functools.cache
 def _random_return(episodes: int) -> float:
+    """The random policy's mean return on ``spread`` over seeded episodes (once per process:
+    both learning tests read the same level; the task is registered by their ``tasks``)."""
     env = make_env("spread", seed=0)
     try:
         policy = RandomPolicy(env.spec, seed=0)
