@@ -1,7 +1,7 @@
 """Old vs new checkout: simulation-core, Tool Delivery and training-loop throughput, side by side.
 
 Run: ``.venv/bin/python bench/perf/compare_checkouts.py [--ref 0c4d129] [--rounds N] [--sections
-sim,td,train]``. Prints a Markdown block for BENCHMARKS.md (progress goes to stderr).
+sim,td,train,methods]``. Prints a Markdown block for BENCHMARKS.md (progress goes to stderr).
 
 Why this exists: a redesign must not make the simulation core or the Tool Delivery environment
 slower, but a figure from last week's BENCHMARKS.md and one measured today are not comparable on
@@ -146,6 +146,24 @@ def sections(td_episodes: int) -> tuple[Section, ...]:
             (),
             (Column("train samples/s", ("case",), True),),
             (Column("iterations", ("case",)),),
+            script_from_new=True,
+        ),
+        Section(
+            "methods",
+            "Training loop on the 6x6 Box Pushing grid, each method at its defaults",
+            "method_speed.py",
+            (
+                "--cases",
+                "bp6",
+                "--methods",
+                "async,acac,mac-iaicc",
+                "--samples",
+                "20000",
+                "--rounds",
+                "1",
+            ),
+            (Column("samples/s", ("case", "method"), True),),
+            (),
             script_from_new=True,
         ),
     )
@@ -329,7 +347,8 @@ def main() -> int:
         "--sections",
         default="sim,td,train",
         help="comma-separated, of sim (simulation core), td (Tool Delivery environment), "
-        "train (training loop, bench/perf/train_rate.py); default: %(default)s",
+        "train (training loop, bench/perf/train_rate.py), methods (async, ACAC and "
+        "Mac-IAICC on the 6x6 grid, bench/perf/method_speed.py); default: %(default)s",
     )
     args = parser.parse_args()
     if args.rounds < 2:

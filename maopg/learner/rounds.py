@@ -143,14 +143,12 @@ def collect_round(
         if epsilon:
             dist = mix_agents(dist, epsilon)  # type: ignore[arg-type]
         joint = dist.sample(generator).cpu().numpy()
-        kept = [copy.deepcopy(p) for p in points]
-        results = envs.step(joint)
+        results = envs.step(joint)  # new points: those kept are not changed
         for e, result in enumerate(results):
-            open_rows[e].append((kept[e], joint[e]))
+            open_rows[e].append((points[e], joint[e]))
             elapsed[e] += result.outcome.duration
             if result.final is not None:
-                final = copy.deepcopy(result.final)
-                finishes.append((int(elapsed[e]), e, open_rows[e], final))
+                finishes.append((int(elapsed[e]), e, open_rows[e], result.final))
                 open_rows[e] = []
         if len(finishes) >= wanted:
             cutoff = sorted(f[0] for f in finishes)[wanted - 1]

@@ -109,7 +109,7 @@ def advance(
 
 
 def scan(
-    cells: Sequence[nn.Module],
+    cells: Sequence[nn.GRUCell],
     inputs: Sequence[Tensor],
     choosing: Tensor,
     starts: Tensor,
@@ -117,15 +117,47 @@ def scan(
 ) -> Tensor:
     """The states ``[T, B, N, W]`` after each of ``T`` time-major points of ``B`` sequences:
     ``inputs[i]`` ``[T * B, W]``, ``choosing`` ``bool [T, B, N]``, ``starts`` ``bool [T, B]``
-    (state zeroed there), from ``state`` ``[B, N, W]``; as :func:`advance` point by point."""
+    (state zeroed there), from ``state`` ``[B, N, W]``; as :func:`advance` point by point.
+
+    Each agent's cell runs once over its own events, not once per point of the team: a
+    sequence's points split at its starts into segments, agent i's events in each segment are
+    gathered into a padded ``[K, segments, W]`` batch that one :func:`torch.gru` call (the
+    cell's own weights) runs through, and every point reads back the state after the agent's
+    latest event of its segment (the segment's initial state before its first). The GRU's
+    arithmetic is the cell's, so the states agree with stepping to rounding."""
     steps, batch = choosing.shape[:2]
-    per_time = [x.view(steps, batch, -1) for x in inputs]
+    device = choosing.device
+    times = torch.arange(steps, device=device).view(-1, 1).expand(steps, batch)
+    # Segment of each point: its sequence's segment count so far, offset per sequence.
+    in_sequence = starts.long().cumsum(0)
+    per_sequence = in_sequence[-1] + 1
+    offsets = per_sequence.cumsum(0) - per_sequence
+    segment = offsets + in_sequence
+    segments = int(per_sequence.sum())
+    # The point where each point's segment began (-1: before any start of its sequence).
+    began = torch.where(starts, times, torch.full_like(times, -1)).cummax(0).values
     states = []
-    for t in range(steps):
-        state = state.masked_fill(starts[t].view(-1, 1, 1), 0.0)
-        state = advance(cells, [x[t] for x in per_time], state, choosing[t])
-        states.append(state)
-    return torch.stack(states)
+    for i, cell in enumerate(cells):
+        mine = choosing[..., i]
+        count = mine.long().cumsum(0)
+        before = (count - mine.long()).gather(0, began.clamp(min=0))
+        events = count - torch.where(began >= 0, before, torch.zeros_like(before))
+        length = int(events.max()) if events.numel() else 0
+        # A sequence's first segment (before its first start) continues ``state``.
+        initial = state.new_zeros(segments, cell.hidden_size).index_put((offsets,), state[:, i])
+        table = initial.unsqueeze(0)
+        if length:
+            rows = mine.flatten()
+            where = ((events.flatten() - 1)[rows], segment.flatten()[rows])
+            x = inputs[i]
+            padded = x.new_zeros(length, segments, x.shape[-1]).index_put(where, x[rows])
+            weights = [cell.weight_ih, cell.weight_hh, cell.bias_ih, cell.bias_hh]
+            out, _ = torch.gru(
+                padded, initial.unsqueeze(0), weights, True, 1, 0.0, cell.training, False, False
+            )
+            table = torch.cat((table, out))
+        states.append(table[events, segment])
+    return torch.stack(states, 2)
 
 
 class AgentCentricPolicy(OptionPolicy):

@@ -16,6 +16,7 @@ from maopg.policy.agent_centric import (
     AgentCentricCritic,
     AgentCentricPolicy,
     PopArt,
+    advance,
     scan,
     time_embedding,
 )
@@ -116,6 +117,46 @@ def test_the_critic_reads_each_agents_latest_encoding_along_an_episode(setup_for
             critic.initial_state(steps[1]),
         )
     assert states.shape == (*steps, 2, width)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_scan_agrees_with_advancing_point_by_point(seed):
+    """``scan`` runs each agent's cell over its own events only; it gives the states and the
+    gradients of :func:`advance` applied at every point: across several starts in one
+    sequence, an agent that never chooses in a segment, and a carried-in state before a
+    sequence's first start."""
+    gen = torch.Generator().manual_seed(seed)
+    steps, batch, agents, width = 30, 4, 3, 8
+    torch.manual_seed(seed)
+    cells = torch.nn.ModuleList(torch.nn.GRUCell(width, width) for _ in range(agents))
+    inputs = [torch.randn(steps * batch, width, generator=gen) for _ in range(agents)]
+    for x in inputs:
+        x.requires_grad_(True)
+    choosing = torch.rand(steps, batch, agents, generator=gen) < 0.4
+    starts = torch.rand(steps, batch, generator=gen) < 0.15
+    starts[0, ::2] = True  # columns 1 and 3 carry ``state`` in until their first start
+    choosing[10:20, 0, 2] = False
+    starts[10, 0] = True  # agent 2 has no event in column 0's segment from point 10
+    state = torch.randn(batch, agents, width, generator=gen, requires_grad=True)
+
+    expected, current = [], state
+    for t in range(steps):
+        current = current.masked_fill(starts[t].view(-1, 1, 1), 0.0)
+        rows = slice(t * batch, (t + 1) * batch)
+        current = advance(cells, [x[rows] for x in inputs], current, choosing[t])
+        expected.append(current)
+    expected = torch.stack(expected)
+    got = scan(cells, inputs, choosing, starts, state)
+
+    assert torch.allclose(got, expected, atol=1e-6)
+    assert torch.equal(got[12, 0, 2], torch.zeros(width))  # zeroed at 10, no event since
+    wrt = [state, *inputs, *cells.parameters()]
+    for a, b in zip(
+        torch.autograd.grad(expected.square().sum(), wrt),
+        torch.autograd.grad(got.square().sum(), wrt),
+        strict=True,
+    ):
+        assert torch.allclose(a, b, atol=1e-5)
 
 
 def test_popart_keeps_every_output_while_its_statistics_move():
