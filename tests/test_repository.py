@@ -1,8 +1,9 @@
 """What the repository keeps: weights only where a study's committed results are made from them.
 
-A study's videos and ``evaluation.md`` read the seed-0 ``final.pt`` of each of its methods; every
-other run's weights, and every pilot's, stay local (``.gitignore``) — the history keeps those
-committed before this rule. A clone stays light, and what it carries is what it needs.
+A study's videos and ``evaluation.md`` (and the leaderboard's account of what its policies do)
+read the seed-0 ``final.pt`` of each of its methods; every other run's weights, and every
+pilot's, stay local (``.gitignore``) — the history keeps those committed before this rule. A
+clone stays light, and what it carries is what it needs.
 """
 
 from __future__ import annotations
@@ -14,7 +15,8 @@ from pathlib import Path
 import pytest
 
 from maopg.experiment.studies import get_study, study_names
-from maopg.experiment.studies.registry import VISION
+from maopg.experiment.studies.leaderboard import BOARDS
+from maopg.experiment.studies.registry import LEADERBOARD, VISION
 from maopg.experiment.studies.vision import METHOD, VARIANTS
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -31,7 +33,8 @@ def _tracked(pattern: str) -> list[Path]:
 
 def allowed_weights() -> set[Path]:
     """Seed 0's ``final.pt`` of every method of every registered study (and of the paper's
-    runs a study reads as its baselines), and of every variant of the vision study."""
+    runs a study reads as its baselines), of every variant of the vision study, and of the
+    leaderboard's own cells (what their policies do is read from them)."""
     allowed = set()
     for name in study_names():
         study = get_study(name)
@@ -45,6 +48,11 @@ def allowed_weights() -> set[Path]:
         for task in variant.study.tasks:
             if 0 in task.seeds:
                 allowed.add(runs / task.task / METHOD / "seed0" / "final.pt")
+    own = Path("results", LEADERBOARD, "runs")
+    for board in BOARDS:
+        for _, runs, methods in board.grids(own):
+            if runs.is_relative_to(own):
+                allowed |= {runs / board.task / m / "seed0" / "final.pt" for m in methods}
     return allowed
 
 

@@ -21,9 +21,12 @@ from maopg.experiment.studies.leaderboard import (
     Board,
     Entry,
     aggregate_table,
+    board_runs,
     headline_table,
+    headline_usage,
     reproduce_leaderboard,
 )
+from maopg.experiment.studies.option_usage import shares, usage_table
 from maopg.experiment.studies.stats import iqm
 
 
@@ -145,8 +148,9 @@ def test_a_tiny_leaderboard_trains_what_no_study_runs_and_reads_the_rest(tmp_pat
     registry.register_study("tiny", lambda: tiny)
     monkeypatch.setitem(TUNING, "sync-cut", "-")
     board = Board("td", "tiny", "tool_delivery", ("async", "sync-cut"))
+    settings = {"in_process": True, "reference_episodes": 2, "usage_episodes": 2}
     outcomes, written = reproduce_leaderboard(
-        tmp_path / "lb", boards=[board], in_process=True, reference_episodes=2, log=lambda _: None
+        tmp_path / "lb", boards=[board], log=lambda _: None, **settings
     )
     assert sorted(outcomes.values()) == ["done"] * 4
     assert (tmp_path / "results/tiny/runs/tool_delivery/async/seed1/done.json").exists()
@@ -171,9 +175,26 @@ def test_a_tiny_leaderboard_trains_what_no_study_runs_and_reads_the_rest(tmp_pat
     # samples to the threshold in one unit, the mean and its interval alike
     assert re.search(r"\| \d+\.\dK( \[\d+\.\dK, \d+\.\dK\])? \(2 of 2\) \|", text), text
     assert "Boards where one of the three has no runs yet: td." in text  # no acac, mac-iaicc
+    assert "### What their policies do\n\nOn the boards" in text and "No board yet." in text
+    # What the headline's seed-0 policy does (sync-cut is not the headline's): a line per agent.
+    (usage,) = headline_usage(board, board_runs(board, tmp_path / "lb/runs"), 2)
+    assert usage[:2] == ("td", "async") and usage[2]["episodes"] == 2
+    assert set(usage[2]["choices"]) == {"turtlebot0", "turtlebot1", "fetch"}
+    assert (tmp_path / "results/tiny/runs/tool_delivery/async/seed0/option_usage.json").exists()
+    line = usage_table([usage]).splitlines()[2]
+    assert re.match(
+        r"\| td \| `async` \| -?\d+\.\d \| \d+% \| [\d.]+ \| turtlebot0 \| \d+ choices: ", line
+    )
     # A second call trains nothing and writes the same tables.
     again, _ = reproduce_leaderboard(
-        tmp_path / "lb", boards=[board], in_process=True, reference_episodes=2, log=lambda _: None
+        tmp_path / "lb", boards=[board], log=lambda _: None, **settings
     )
     assert set(again.values()) == {"skipped"}
     assert (tmp_path / "lb/tables.md").read_text() == text
+
+
+def test_an_agents_options_are_named_by_their_shares_of_its_decisions():
+    assert shares({"b": 1, "a": 1, "c": 6, "d": 2}, top=2) == "10 choices: c 60%, d 20%, other 20%"
+    assert shares({"b": 1, "a": 1}) == "2 choices: a 50%, b 50%"  # ties in name order
+    assert shares({"a": 999, "b": 1}) == "1000 choices: a 100%, b <1%"
+    assert shares({}) == "no decision"

@@ -1,0 +1,95 @@
+"""What a trained policy does: its outcome and which options each agent chooses.
+
+A return says how well a policy does, not how: two policies at the same return may split the
+work between their robots, or leave one idle while the other does it all; a policy stuck below
+the others may wait, or loop one short option. Each seed-0 policy (the seed whose weights a
+study commits) plays ``episodes`` sampled episodes (reset seeds 0, 1, ...; as evaluations
+during training act: sampled, no ε), and every agent's choices are counted by option name
+(:attr:`~maopg.experiment.evaluation.evaluate.EvalResult.choices`). The summary is cached in
+the run directory's ``option_usage.json``, keyed as the studies' evaluations are
+(:mod:`maopg.experiment.studies.cache`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+from maopg.experiment.evaluation.evaluate import evaluate
+from maopg.experiment.run.directory import FINAL
+from maopg.experiment.studies.cache import behaviour, cached, sha256
+from maopg.experiment.studies.runs import RunData
+from maopg.experiment.studies.tables import markdown_table
+
+OPTION_USAGE = "option_usage.json"
+USAGE_EPISODES = 20
+"""Sampled episodes a policy plays for its usage."""
+TOP_OPTIONS = 3
+"""The options named per agent (the most chosen); the rest are summed as ``other``."""
+
+
+def option_usage(run: RunData, episodes: int = USAGE_EPISODES) -> dict | None:
+    """The run's final policy, sampled over ``episodes`` episodes: the evaluation summary and
+    ``choices`` (agent → option → times chosen); ``None`` where the run kept no weights."""
+    from maopg.experiment.evaluation.loading import load_trained
+
+    file = run.path / FINAL
+    if not file.exists():
+        return None
+    trained = load_trained(file)
+    key = {
+        "episodes": episodes,
+        **behaviour([run.task], type(trained.policy)),
+        "weights": sha256([file], run.path),
+    }
+
+    def play() -> list[dict]:
+        env = trained.make_env(0)
+        try:
+            label = f"{run.method} seed{run.seed} sampled"
+            result = evaluate(env, trained.actor(greedy=False, seed=0), episodes, label=label)
+        finally:
+            env.close()
+        return [{**result.summary, "choices": result.choices}]
+
+    return cached(run.path / OPTION_USAGE, key, play)[0]
+
+
+def shares(choices: dict[str, int], top: int = TOP_OPTIONS) -> str:
+    """``"GoToTR 56%, GetTool 22%, ..."``: the ``top`` most chosen options' shares of the
+    agent's decisions (ties in name order; under half a per cent: ``<1%``), the rest as
+    ``other``."""
+    total = sum(choices.values())
+    if not total:
+        return "no decision"
+
+    def share(count: int) -> str:
+        return "<1%" if count / total < 0.005 else f"{count / total:.0%}"
+
+    ranked = sorted(choices.items(), key=lambda item: (-item[1], item[0]))
+    parts = [f"{name} {share(count)}" for name, count in ranked[:top]]
+    rest = sum(count for _, count in ranked[top:])
+    if rest:
+        parts.append(f"other {share(rest)}")
+    return f"{total} choices: " + ", ".join(parts)
+
+
+def usage_table(rows: Sequence[tuple[str, str, dict]]) -> str:
+    """One line per ``(board, method, usage)`` and agent: return, success and length over the
+    episodes, and the agent's most chosen options."""
+    table = []
+    for board, method, usage in rows:
+        for i, (agent, choices) in enumerate(usage["choices"].items()):
+            outcome = (
+                [
+                    board,
+                    f"`{method}`",
+                    f"{usage['return_mean']:.1f}",
+                    f"{usage['success_rate']:.0%}",
+                    f"{usage['length_mean']:.1f}",
+                ]
+                if i == 0
+                else ["", "", "", "", ""]
+            )
+            table.append([*outcome, agent, shares(choices)])
+    header = ["board", "method (seed 0)", "return", "success", "length", "agent", "its options"]
+    return markdown_table(header, table)
