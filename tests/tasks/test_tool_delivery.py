@@ -219,12 +219,13 @@ def test_primitive_moves_drive_point_six_metres_per_tick() -> None:
 
 
 @pytest.mark.slow
-def test_reference_returns_over_ten_seeds() -> None:
+def test_reference_returns_over_several_seeds() -> None:
     scripted = evaluate_reference("tool_delivery", "scripted", episodes=10)
     assert np.mean([r.ret for r in scripted]) >= 230
-    # Random: 10 seeds x 20 episodes (one episode's std is ~130, so 10 alone is too noisy).
+    # Random: 5 seeds x 20 episodes (one episode's std is ~130, so 10 alone is too noisy; over
+    # 100 the standard error is 13.8, and the bounds lie 4.8 and 3.9 of them from the mean, −54.1).
     returns = [
-        r.ret for seed in range(10) for r in evaluate_reference("tool_delivery", "random", 20, seed)
+        r.ret for seed in range(5) for r in evaluate_reference("tool_delivery", "random", 20, seed)
     ]
     assert -120 <= np.mean(returns) <= 0, np.mean(returns)
 
