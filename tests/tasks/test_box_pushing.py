@@ -17,7 +17,7 @@ from maopg.sim import robots
 from maopg.sim.robots import GroundAdapter, get_robot, register_robot, robot_names
 from maopg.sim.robots.turtlebot import TurtlebotAdapter
 from maopg.tasks.box_pushing.arena import BOX_HEIGHT
-from maopg.tasks.box_pushing.config import Config
+from maopg.tasks.box_pushing.config import ROBOT_SETTINGS, Config
 from maopg.tasks.box_pushing.scene import BOXES
 
 TASK = "box_pushing"
@@ -104,6 +104,26 @@ def test_two_robots_deliver_the_big_box_even_heavier() -> None:
     assert env.task.describe()["delivered"] == ["big box"]
     assert pushed.reward == pytest.approx(300 - 0.1 * pushed.duration)  # no stall penalty
     assert pushed.duration < 25
+    env.close()
+
+
+@pytest.mark.parametrize("robot", sorted(set(ROBOT_SETTINGS) - {"turtlebot"}))
+def test_every_other_ground_robot_cooperates_at_its_settings(robot: str) -> None:
+    """At its ``ROBOT_SETTINGS`` (measured with ``bench/analysis/box_pushing_robots.py``, which
+    prints the margins) one robot pushing the big box alone for 40 ticks moves it a few
+    centimetres at most, and two deliver it in one push each."""
+    settings = {"turtlebot_robot": robot, "max_ticks": 200, **ROBOT_SETTINGS[robot]}
+    env = env_of(**settings)
+    point, start = at_the_big_box(env), box_xy(env, 2)
+    first = point.ticks
+    while point.ticks < first + 40:
+        point, _, _ = play(env, point, agent0="Push")
+    assert env.task.describe()["delivered"] == []
+    assert np.linalg.norm(box_xy(env, 2) - start) < 0.1
+    env.close()
+    env = env_of(**settings)
+    pushed, _, _ = play(env, at_the_big_box(env), agent0="Push", agent1="Push")
+    assert pushed.terminated and env.task.describe()["delivered"] == ["big box"]
     env.close()
 
 

@@ -12,6 +12,19 @@ from maopg.tasks.box_pushing_grid.config import SIZES
 from maopg.tasks.box_pushing_grid.config import Config as GridConfig
 from maopg.tasks.config import SceneTaskConfig
 
+ROBOT_SETTINGS: Mapping[str, Mapping[str, float]] = {
+    "turtlebot": {},
+    "vehicle": {"big_box_mass": 57.0},
+    "diffbot": {"big_box_mass": 9.0, "stall_distance": 0.02},
+}
+"""Settings under which each built-in ground robot keeps the task cooperative — one robot does
+not move the big box, two deliver it — measured by ``bench/analysis/box_pushing_robots.py``
+(``docs/reference/tasks.md`` prints its table): the defaults are the Turtlebot's. The vehicle
+pushes harder (two deliver 47 kg, but one alone creeps it 9 cm in 40 ticks), so its big box is
+heavier; the differential drive is traction-limited and slower (two do not move 47 kg, and a
+push of 9 kg makes less than the default stall distance a tick). Not applied by themselves: a
+run sets them beside ``turtlebot_robot``."""
+
 
 @dataclass(frozen=True)
 class Config(SceneTaskConfig):
@@ -43,7 +56,8 @@ class Config(SceneTaskConfig):
     small_box_mass: float = setting(3.0, gt=0.0)
     """kg: 18 N of floor friction, a tenth of what one Turtlebot pushes with."""
     big_box_mass: float = setting(47.0, gt=0.0)
-    """kg: 277 N of floor friction, beyond one Turtlebot (180 N), within two (360 N)."""
+    """kg: 277 N of floor friction, beyond one Turtlebot (180 N), within two (360 N); another
+    robot's in :data:`ROBOT_SETTINGS`."""
     box_friction: float = setting(0.6, gt=0.0)
     """Sliding friction between a box and the floor (against robots, walls and other boxes a
     box slides at ``arena.BOX_SIDE_FRICTION``)."""

@@ -13,8 +13,8 @@ gain times its top speed); a small box (3 kg) needs 18 N, the big one (47 kg) 27
 robot cannot move the big box and two can, which ``tests/tasks/test_box_pushing.py`` measures
 with the real actuators, with margins both ways (15%: one robot holds a big box 15% lighter
 and turns one 17% lighter about a far corner; two deliver one 15% heavier in one push each).
-The masses are the Turtlebot's; a robot that pushes harder or softer needs its own
-(``big_box_mass``: two of the differential drives do not move the default big box).
+The masses are the Turtlebot's; a robot that pushes harder or softer needs its own, measured
+for the built-in ground robots in :data:`~maopg.tasks.box_pushing.config.ROBOT_SETTINGS`.
 
 Macro-actions (the grid's eight, in its order, each ending on the robot's own physics):
 
