@@ -36,6 +36,11 @@ class TaskConfig(Settings):
     primitive: bool = False
     """Give agents one-tick primitive actions instead of options (end2end baseline)."""
 
+    def advice(self) -> list[str]:
+        """What a run says at its start about these settings: a combination that runs, but
+        that behaves otherwise than a user likely means (none by default)."""
+        return []
+
 
 @dataclass(frozen=True)
 class SceneTaskConfig(TaskConfig):

@@ -127,6 +127,21 @@ def test_every_other_ground_robot_cooperates_at_its_settings(robot: str) -> None
     env.close()
 
 
+def test_a_run_is_told_the_measured_settings_of_another_robot(monkeypatch) -> None:
+    """The note a run prints at its start (``TaskConfig.advice``): another robot's measured box
+    settings while they are still the Turtlebot's, or where to measure a robot's own."""
+    assert Config().advice() == []
+    (advice,) = Config(turtlebot_robot="diffbot").advice()
+    assert "env.big_box_mass=9 env.stall_distance=0.02" in advice
+    (advice,) = Config(turtlebot_robot="diffbot", big_box_mass=9.0).advice()
+    assert "are env.stall_distance=0.02 (" in advice
+    assert Config(turtlebot_robot="diffbot", big_box_mass=9.0, stall_distance=0.02).advice() == []
+    monkeypatch.delitem(ROBOT_SETTINGS, "vehicle")  # as a user's robot: nothing measured
+    (advice,) = Config(turtlebot_robot="vehicle").advice()
+    assert "bench/analysis/box_pushing_robots.py measures" in advice
+    assert Config(turtlebot_robot="vehicle", big_box_mass=60.0).advice() == []
+
+
 def test_a_small_box_moves_with_one_robot() -> None:
     """Pushed north until its centre enters the goal strip (the top row; the grid's steps onto
     the row's centre)."""

@@ -76,6 +76,7 @@ from maopg.learner import (
 )
 from maopg.policy.joint_size import BuildTarget
 from maopg.progress import run_progress
+from maopg.tasks import make_config
 
 RESUMABLE_KEYS = (
     "total_samples",
@@ -456,6 +457,8 @@ def _train(config: TrainConfig, lock: RunDirLock, *, resume: bool, overwrite: bo
         torch.set_num_threads(config.torch_threads)
     _note_slow_bf16(config)
     _note_raw_memory(config)
+    for advice in make_config(config.task, config.env_overrides).advice():  # type: ignore[arg-type]
+        _note(advice)
     sample_gen, update_gen = _seed_everything(config.seed)
 
     # Workers are spawned before this process builds anything that renders (docs/DESIGN.md §2).

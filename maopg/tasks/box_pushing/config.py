@@ -4,7 +4,7 @@ overrides without importing the simulation."""
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from typing import ClassVar
 
 from maopg.settings import setting
@@ -12,6 +12,8 @@ from maopg.tasks.box_pushing_grid.config import SIZES
 from maopg.tasks.box_pushing_grid.config import Config as GridConfig
 from maopg.tasks.config import SceneTaskConfig
 
+BOX_SETTINGS = ("small_box_mass", "big_box_mass", "box_friction", "stall_distance", "stall_ticks")
+"""The settings that decide whether one robot or two can move a box."""
 ROBOT_SETTINGS: Mapping[str, Mapping[str, float]] = {
     "turtlebot": {},
     "vehicle": {"big_box_mass": 57.0},
@@ -23,7 +25,8 @@ not move the big box, two deliver it — measured by ``bench/analysis/box_pushin
 pushes harder (two deliver 47 kg, but one alone creeps it 9 cm in 40 ticks), so its big box is
 heavier; the differential drive is traction-limited and slower (two do not move 47 kg, and a
 push of 9 kg makes less than the default stall distance a tick). Not applied by themselves: a
-run sets them beside ``turtlebot_robot``."""
+run sets them beside ``turtlebot_robot``, and one that does not is told so at its start
+(:meth:`Config.advice`)."""
 
 
 @dataclass(frozen=True)
@@ -83,6 +86,30 @@ class Config(SceneTaskConfig):
     """A turn that has not reached its heading ends after this many ticks (a robot in the way)."""
     nav_slack_ticks: int = setting(4, ge=0)
     """A GoTo gives up this many ticks after its route's full-speed travel time."""
+
+    def advice(self) -> list[str]:
+        """With a robot other than the Turtlebot, the box settings still at the Turtlebot's:
+        the robot's measured ones (:data:`ROBOT_SETTINGS`), or where to measure them."""
+        if self.turtlebot_robot == "turtlebot":
+            return []
+        defaults = {f.name: f.default for f in fields(self)}
+        tuned = ROBOT_SETTINGS.get(self.turtlebot_robot)
+        if tuned is None:
+            if any(getattr(self, k) != defaults[k] for k in BOX_SETTINGS):
+                return []
+            return [
+                f"env.turtlebot_robot={self.turtlebot_robot}: the box masses and stall distance "
+                "are the Turtlebot's; bench/analysis/box_pushing_robots.py measures whether one "
+                "of your robots moves the big box and two deliver it"
+            ]
+        missing = [f"env.{k}={v:g}" for k, v in tuned.items() if getattr(self, k) == defaults[k]]
+        if not missing:
+            return []
+        return [
+            f"env.turtlebot_robot={self.turtlebot_robot}: at the Turtlebot's box settings the "
+            f"task is not cooperative for it; its measured ones are {' '.join(missing)} "
+            "(ROBOT_SETTINGS, docs/reference/tasks.md)"
+        ]
 
     def validate(self) -> None:
         """The fields' own bounds and a ground robot (``ROBOT_ROLES``), then one that turns on
