@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 
 from maopg.experiment.studies import get_study, study_names
-from maopg.experiment.studies.leaderboard import BOARDS
+from maopg.experiment.studies.leaderboard import AGENT_METHODS, BOARDS, CONDITIONAL
 from maopg.experiment.studies.registry import LEADERBOARD, VISION
 from maopg.experiment.studies.vision import METHOD, VARIANTS
 
@@ -34,7 +34,8 @@ def _tracked(pattern: str) -> list[Path]:
 def allowed_weights() -> set[Path]:
     """Seed 0's ``final.pt`` of every method of every registered study (and of the paper's
     runs a study reads as its baselines), of every variant of the vision study, and of the
-    leaderboard's own cells (what their policies do is read from them)."""
+    leaderboard's own cells of the headline's methods (what their policies do is read from
+    them)."""
     allowed = set()
     for name in study_names():
         study = get_study(name)
@@ -52,7 +53,8 @@ def allowed_weights() -> set[Path]:
     for board in BOARDS:
         for _, runs, methods in board.grids(own):
             if runs.is_relative_to(own):
-                allowed |= {runs / board.task / m / "seed0" / "final.pt" for m in methods}
+                read = [m for m in methods if m in (*CONDITIONAL, *AGENT_METHODS)]
+                allowed |= {runs / board.task / m / "seed0" / "final.pt" for m in read}
     return allowed
 
 

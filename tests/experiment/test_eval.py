@@ -18,7 +18,7 @@ from maopg.env.video import video_title
 from maopg.experiment.cli.eval_cli import main
 from maopg.experiment.cli.train_cli import main as train_main
 from maopg.experiment.evaluation import timeline
-from maopg.experiment.evaluation.evaluate import evaluate
+from maopg.experiment.evaluation.evaluate import evaluate, option_shares
 from maopg.experiment.evaluation.loading import load_trained
 from maopg.experiment.run.config import RUN_SECTIONS, TrainConfig
 from maopg.experiment.run.directory import DONE, FINAL
@@ -736,3 +736,12 @@ def test_every_registered_study_plans_runs_that_train_accepts(tmp_path, name):
     study = get_study(name)
     assert set(dry.values()) == {"would start"}
     assert len(dry) == len(study.methods) * sum(len(t.seeds) for t in study.tasks)
+
+
+def test_an_agents_options_are_named_by_their_shares_of_its_choices():
+    assert (
+        option_shares({"b": 1, "a": 1, "c": 6, "d": 2}, 2) == "10 choices — c 60%, d 20%, other 20%"
+    )
+    assert option_shares({"b": 1, "a": 1, "z": 0}) == "2 choices — a 50%, b 50%"  # name order
+    assert option_shares({"a": 999, "b": 1}) == "1000 choices — a 100%, b <1%"
+    assert option_shares({}) == "no choice"

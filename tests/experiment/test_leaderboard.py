@@ -26,7 +26,7 @@ from maopg.experiment.studies.leaderboard import (
     headline_usage,
     reproduce_leaderboard,
 )
-from maopg.experiment.studies.option_usage import shares, usage_table
+from maopg.experiment.studies.option_usage import usage_table
 from maopg.experiment.studies.stats import iqm
 
 
@@ -183,7 +183,7 @@ def test_a_tiny_leaderboard_trains_what_no_study_runs_and_reads_the_rest(tmp_pat
     assert (tmp_path / "results/tiny/runs/tool_delivery/async/seed0/option_usage.json").exists()
     line = usage_table([usage]).splitlines()[2]
     assert re.match(
-        r"\| td \| `async` \| -?\d+\.\d \| \d+% \| [\d.]+ \| turtlebot0 \| \d+ choices: ", line
+        r"\| td \| `async` \| -?\d+\.\d \| \d+% \| [\d.]+ \| turtlebot0 \| \d+ choices — ", line
     )
     # A second call trains nothing and writes the same tables.
     again, _ = reproduce_leaderboard(
@@ -191,10 +191,3 @@ def test_a_tiny_leaderboard_trains_what_no_study_runs_and_reads_the_rest(tmp_pat
     )
     assert set(again.values()) == {"skipped"}
     assert (tmp_path / "lb/tables.md").read_text() == text
-
-
-def test_an_agents_options_are_named_by_their_shares_of_its_decisions():
-    assert shares({"b": 1, "a": 1, "c": 6, "d": 2}, top=2) == "10 choices: c 60%, d 20%, other 20%"
-    assert shares({"b": 1, "a": 1}) == "2 choices: a 50%, b 50%"  # ties in name order
-    assert shares({"a": 999, "b": 1}) == "1000 choices: a 100%, b <1%"
-    assert shares({}) == "no decision"

@@ -138,14 +138,29 @@ def evaluate(
     )
 
 
+def option_shares(counts: dict[str, int], top: int | None = None) -> str:
+    """``"180 choices — GoToTR 56%, GetTool 22%, ..."``: an agent's options by their share of
+    its choices, most chosen first (ties in name order; under half a per cent: ``<1%``), the
+    ``top`` most chosen and the rest as ``other`` (``None``: every option chosen)."""
+    total = sum(counts.values())
+    if not total:
+        return "no choice"
+
+    def share(count: int) -> str:
+        return "<1%" if count / total < 0.005 else f"{count / total:.0%}"
+
+    ranked = sorted(((n, c) for n, c in counts.items() if c), key=lambda item: (-item[1], item[0]))
+    shown = ranked if top is None else ranked[:top]
+    parts = [f"{name} {share(count)}" for name, count in shown]
+    rest = sum(count for _, count in ranked[len(shown) :])
+    if rest:
+        parts.append(f"other {share(rest)}")
+    return f"{total} choices — " + ", ".join(parts)
+
+
 def choices_lines(result: EvalResult, top: int = 4) -> list[str]:
     """Each agent's most chosen options with their share of its choices."""
-    lines = []
-    for agent, counts in result.choices.items():
-        total = sum(counts.values())
-        common = ", ".join(f"{name} {n / total:.0%}" for name, n in list(counts.items())[:top])
-        lines.append(f"{agent}: {total} choices — {common}")
-    return lines
+    return [f"{agent}: {option_shares(counts, top)}" for agent, counts in result.choices.items()]
 
 
 def results_table(summaries: list[dict[str, Any]]) -> str:

@@ -545,7 +545,7 @@ def reproduce_leaderboard(
         "On the boards all three share, each one's seed-0 policy (the weights the studies "
         f"keep), sampled over {usage_episodes} episodes "
         "(`maopg.experiment.studies.option_usage`): its return, how often it succeeds, the "
-        "episode's length in ticks, and each agent's most chosen options.\n\n"
+        "episode's length in ticks, and every option each agent chose, by its share.\n\n"
         + (usage_table(usages) if usages else "No board yet.\n")
         + "\n## Across boards\n\n"
         + aggregate_table(chosen, rows)

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from maopg.experiment.evaluation.evaluate import evaluate
+from maopg.experiment.evaluation.evaluate import evaluate, option_shares
 from maopg.experiment.run.directory import FINAL
 from maopg.experiment.studies.cache import behaviour, cached, sha256
 from maopg.experiment.studies.runs import RunData
@@ -23,8 +23,6 @@ from maopg.experiment.studies.tables import markdown_table
 OPTION_USAGE = "option_usage.json"
 USAGE_EPISODES = 20
 """Sampled episodes a policy plays for its usage."""
-TOP_OPTIONS = 3
-"""The options named per agent (the most chosen); the rest are summed as ``other``."""
 
 
 def option_usage(run: RunData, episodes: int = USAGE_EPISODES) -> dict | None:
@@ -54,28 +52,9 @@ def option_usage(run: RunData, episodes: int = USAGE_EPISODES) -> dict | None:
     return cached(run.path / OPTION_USAGE, key, play)[0]
 
 
-def shares(choices: dict[str, int], top: int = TOP_OPTIONS) -> str:
-    """``"GoToTR 56%, GetTool 22%, ..."``: the ``top`` most chosen options' shares of the
-    agent's decisions (ties in name order; under half a per cent: ``<1%``), the rest as
-    ``other``."""
-    total = sum(choices.values())
-    if not total:
-        return "no decision"
-
-    def share(count: int) -> str:
-        return "<1%" if count / total < 0.005 else f"{count / total:.0%}"
-
-    ranked = sorted(choices.items(), key=lambda item: (-item[1], item[0]))
-    parts = [f"{name} {share(count)}" for name, count in ranked[:top]]
-    rest = sum(count for _, count in ranked[top:])
-    if rest:
-        parts.append(f"other {share(rest)}")
-    return f"{total} choices: " + ", ".join(parts)
-
-
 def usage_table(rows: Sequence[tuple[str, str, dict]]) -> str:
     """One line per ``(board, method, usage)`` and agent: return, success and length over the
-    episodes, and the agent's most chosen options."""
+    episodes, and every option the agent chose, by its share."""
     table = []
     for board, method, usage in rows:
         for i, (agent, choices) in enumerate(usage["choices"].items()):
@@ -90,6 +69,6 @@ def usage_table(rows: Sequence[tuple[str, str, dict]]) -> str:
                 if i == 0
                 else ["", "", "", "", ""]
             )
-            table.append([*outcome, agent, shares(choices)])
+            table.append([*outcome, agent, option_shares(choices)])
     header = ["board", "method (seed 0)", "return", "success", "length", "agent", "its options"]
     return markdown_table(header, table)
