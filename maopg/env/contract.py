@@ -130,8 +130,9 @@ class EnvSpec:
 class DecisionPoint:
     """Everything an environment reports at a decision point (and at reset).
 
-    Arrays are indexed by agent in ``EnvSpec.agents`` order. The environment owns its buffers:
-    a learner that keeps a ``DecisionPoint`` across steps must copy the arrays it stores.
+    Arrays are indexed by agent in ``EnvSpec.agents`` order. An option environment owns its
+    buffers: whoever keeps a point it returned across its steps copies it (:meth:`copy`), as a
+    vector environment does for the learners.
     """
 
     vectors: tuple[np.ndarray, ...]

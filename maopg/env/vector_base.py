@@ -77,7 +77,9 @@ class StepResult:
 
 
 class VectorEnv(Protocol):
-    """What a backend does for :class:`SeededVectorEnv`; every list is in environment order."""
+    """What a backend does for :class:`SeededVectorEnv`; every list is in environment order.
+    Every point it returns is a new object that owns its arrays (:meth:`DecisionPoint.copy`, or
+    unpickled from a worker): learners keep them across steps without copying."""
 
     num_envs: int
 

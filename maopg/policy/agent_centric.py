@@ -124,7 +124,8 @@ def scan(
     gathered into a padded ``[K, segments, W]`` batch that one :func:`torch.gru` call (the
     cell's own weights) runs through, and every point reads back the state after the agent's
     latest event of its segment (the segment's initial state before its first). The GRU's
-    arithmetic is the cell's, so the states agree with stepping to rounding."""
+    arithmetic is the cell's, so the states agree with stepping to rounding (on a GPU without
+    cuDNN, whose RNNs may compute in TF32)."""
     steps, batch = choosing.shape[:2]
     device = choosing.device
     times = torch.arange(steps, device=device).view(-1, 1).expand(steps, batch)
@@ -152,9 +153,11 @@ def scan(
             x = inputs[i]
             padded = x.new_zeros(length, segments, x.shape[-1]).index_put(where, x[rows])
             weights = [cell.weight_ih, cell.weight_hh, cell.bias_ih, cell.bias_hh]
-            out, _ = torch.gru(
-                padded, initial.unsqueeze(0), weights, True, 1, 0.0, cell.training, False, False
-            )
+            # Off cuDNN: its RNNs may compute in TF32, where the acting cells stay in fp32.
+            with torch.backends.cudnn.flags(enabled=False):
+                out, _ = torch.gru(
+                    padded, initial.unsqueeze(0), weights, True, 1, 0.0, cell.training, False, False
+                )
             table = torch.cat((table, out))
         states.append(table[events, segment])
     return torch.stack(states, 2)
