@@ -23,6 +23,7 @@ import numpy as np
 
 from maopg.env import DecisionPoint, OptionEnv, make_env
 from maopg.experiment.run.sysinfo import markdown
+from maopg.tasks import make_config
 from maopg.tasks.box_pushing.config import ROBOT_SETTINGS
 from maopg.tasks.box_pushing.scene import BOXES
 
@@ -47,11 +48,19 @@ def until_done(env: OptionEnv, point: DecisionPoint, **chosen: str) -> DecisionP
     return point
 
 
+BIG_BOX_AHEAD = "01000"
+"""An agent's observation bits facing the big box from its waypoint below it."""
+
+
 def below_the_big_box(env: OptionEnv) -> DecisionPoint:
-    """Both robots at their waypoints below the big box, both choosing."""
+    """Both robots at their waypoints below the big box, facing it, both choosing; a
+    ``RuntimeError`` where the navigation does not get them there."""
     point = until_done(env, env.reset(), agent0="GoToBigBox(left)", agent1="GoToBigBox(right)")
     while not point.choosing.all():
         point = choose(env, point)
+    seen = ["".join(str(int(b)) for b in v) for v in point.vectors]
+    if seen != [BIG_BOX_AHEAD] * 2:
+        raise RuntimeError(f"the robots did not reach the big box (they see {seen})")
     return point
 
 
@@ -96,8 +105,16 @@ def main() -> None:
         cases = []
         for case in args.cases:
             robot, _, given = case.partition(":")
-            pairs = (item.split("=", 1) for item in given.split(",") if item)
-            cases.append((robot, {k: float(v) for k, v in pairs}))
+            items = [item for item in given.split(",") if item]
+            if any("=" not in item for item in items):
+                parser.error(f"{case!r}: write ROBOT or ROBOT:key=value,key=value")
+            pairs = (item.split("=", 1) for item in items)
+            cases.append((robot, {k: int(v) if v.isdigit() else float(v) for k, v in pairs}))
+    for robot, settings in cases:  # a bad robot or setting: one line, before any output
+        try:
+            make_config("box_pushing", {"turtlebot_robot": robot, **settings})
+        except (KeyError, ValueError) as error:
+            parser.error(str(error).strip("'\""))
     print("### Box Pushing with each ground robot (`bench/analysis/box_pushing_robots.py`)\n")
     print(markdown())
     print(

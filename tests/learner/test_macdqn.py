@@ -325,7 +325,8 @@ def test_learns_to_beat_the_random_policy(tmp_path):
     """Seeded smoke run on Tool Delivery (state observations): the Mac-DQN agent's mean return
     over its last 20 iterations beats the uniform-random policy's, measured here on the same
     environment, by 100. The run is the first 15K samples of the paper study's seed-0 run
-    (``results/runs/tool_delivery/mac-dqn``, the same rows bit for bit); at 15K the five seeds
+    (``results/runs/tool_delivery/mac-dqn``; the same rows bit for bit on the machine that
+    trained it, whose curves are bit-exact per machine); at 15K the five seeds
     there read 157.9, 159.8, 139.4, 143.6 and 158.3 over their last 20 iterations, where the bar
     is −20.0 + 100 (at 20K seed 2 dips to 96.7)."""
     env = make_env("tool_delivery", seed=123)

@@ -14,7 +14,7 @@ import pytest
 from maopg.env import DecisionPoint, OptionEnv, make_env
 from maopg.env.rollout import RandomPolicy, reference_policy, run_episode
 from maopg.sim import robots
-from maopg.sim.robots import GroundAdapter, get_robot, register_robot, robot_names
+from maopg.sim.robots import GroundAdapter, get_robot, register_robot, robot_names, robots_of_role
 from maopg.sim.robots.turtlebot import TurtlebotAdapter
 from maopg.tasks.box_pushing.arena import BOX_HEIGHT
 from maopg.tasks.box_pushing.config import ROBOT_SETTINGS, Config
@@ -105,6 +105,10 @@ def test_two_robots_deliver_the_big_box_even_heavier() -> None:
     assert pushed.reward == pytest.approx(300 - 0.1 * pushed.duration)  # no stall penalty
     assert pushed.duration < 25
     env.close()
+
+
+def test_every_built_in_ground_robot_has_measured_settings() -> None:
+    assert set(ROBOT_SETTINGS) == set(robots_of_role("ground"))
 
 
 @pytest.mark.parametrize("robot", sorted(set(ROBOT_SETTINGS) - {"turtlebot"}))
