@@ -78,14 +78,14 @@ def test_the_literature_methods_beat_the_random_team_on_tool_delivery(
 ):
     """ACAC and Mac-IAICC on Tool Delivery (state): the policy each evaluates at the end of its
     budget (sampled, no ε) beats a random team's mean (−57.3 over these 40 episodes) by the
-    margin. Measured, seeds 0, 1, 2: ACAC at 10K, 10 episodes, 20.4, 177.5, 134.0 (at 30K
-    229.4, 222.7, 219.3). Mac-IAICC learns far more slowly — one vanilla policy-gradient step a
-    round — and unevenly: at 30K, 40 episodes each (SE about 21), −66.7, 11.9 and −23.9, so one
-    seed of three is still at the random team's level; this test's single evaluation of seed 1
-    reads 1.2 (evaluations drawn at 10K intervals with 10 episodes read −37.6, −5.0 and 55.6, a
-    spread the evaluation's own noise makes). With one-step targets and rate 1e-3 it was worse
-    than random (−161, −175, −173): its turtlebots re-chose the one-tick move to where they
-    stood, which a young critic's values near 0 make look best when every tick costs."""
+    margin. Measured as the test measures, seeds 0, 1, 2: ACAC at 10K, 10 episodes, 32.0, 168.5
+    and 134.0. Mac-IAICC learns far more slowly — one vanilla policy-gradient step a round — and
+    unevenly: at 30K, 40 episodes (SE about 21), −8.5, 1.2 and −5.5, each about 50–60 above the
+    random team (evaluations drawn at 10K intervals with 10 episodes read −37.6, −5.0 and 55.6
+    for seed 1, a spread the evaluation's own noise makes). With one-step targets and rate 1e-3
+    it was worse than random (−161, −175, −173): its turtlebots re-chose the one-tick move to
+    where they stood, which a young critic's values near 0 make look best when every tick
+    costs."""
     seed, budget, episodes, margin = TOOL_DELIVERY_LEARNERS[method]
     settings = {k.split(".", 1)[1]: v for k, v in FEW_EPISODES[method].items()}
     learner = ACACConfig(**settings) if method == "acac" else MacIAICCConfig(**settings)
