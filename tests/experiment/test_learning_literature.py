@@ -81,11 +81,9 @@ def test_the_literature_methods_beat_the_random_team_on_tool_delivery(
     margin. Measured as the test measures, seeds 0, 1, 2: ACAC at 10K, 10 episodes, 32.0, 168.5
     and 134.0. Mac-IAICC learns far more slowly — one vanilla policy-gradient step a round — and
     unevenly: at 30K, 40 episodes (SE about 21), −8.5, 1.2 and −5.5, each about 50–60 above the
-    random team (evaluations drawn at 10K intervals with 10 episodes read −37.6, −5.0 and 55.6
-    for seed 1, a spread the evaluation's own noise makes). With one-step targets and rate 1e-3
-    it was worse than random (−161, −175, −173): its turtlebots re-chose the one-tick move to
-    where they stood, which a young critic's values near 0 make look best when every tick
-    costs."""
+    random team. With one-step targets and rate 1e-3 it was worse than random in the pilots
+    (docs/results/leaderboard.md): its turtlebots re-chose the one-tick move to where they
+    stood, which a young critic's values near 0 make look best when every tick costs."""
     seed, budget, episodes, margin = TOOL_DELIVERY_LEARNERS[method]
     settings = {k.split(".", 1)[1]: v for k, v in FEW_EPISODES[method].items()}
     learner = ACACConfig(**settings) if method == "acac" else MacIAICCConfig(**settings)
