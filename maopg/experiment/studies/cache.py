@@ -54,6 +54,16 @@ def behaviour(tasks: Sequence[str], policy: type | None = None) -> dict:
     return key
 
 
+def weights_key(episodes: int, task: str, policy: type, weights: Path) -> dict:
+    """The key of an evaluation of ``episodes`` episodes on ``task`` by the weights in the file
+    ``weights`` (of a ``policy`` network): what it rests on, the file's sha256 included."""
+    return {
+        "episodes": episodes,
+        **behaviour([task], policy),
+        "weights": sha256([weights], weights.parent),
+    }
+
+
 def cached(path: Path, key: dict, compute: Callable[[], list[dict]]) -> list[dict]:
     """The summaries stored in ``path`` if they were made for ``key``, else computed and stored
     (delete the file to redo)."""

@@ -16,7 +16,7 @@ from collections.abc import Sequence
 
 from maopg.experiment.evaluation.evaluate import evaluate, option_shares
 from maopg.experiment.run.directory import FINAL
-from maopg.experiment.studies.cache import behaviour, cached, sha256
+from maopg.experiment.studies.cache import cached, weights_key
 from maopg.experiment.studies.runs import RunData
 from maopg.experiment.studies.tables import markdown_table
 
@@ -34,11 +34,7 @@ def option_usage(run: RunData, episodes: int = USAGE_EPISODES) -> dict | None:
     if not file.exists():
         return None
     trained = load_trained(file)
-    key = {
-        "episodes": episodes,
-        **behaviour([run.task], type(trained.policy)),
-        "weights": sha256([file], run.path),
-    }
+    key = weights_key(episodes, run.task, type(trained.policy), file)
 
     def play() -> list[dict]:
         env = trained.make_env(0)

@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING
 from maopg.experiment.evaluation.evaluate import evaluate, results_table
 from maopg.experiment.run.directory import FINAL
 from maopg.experiment.run.lock import held_elsewhere
-from maopg.experiment.studies.cache import behaviour, cached, sha256
+from maopg.experiment.studies.cache import behaviour, cached, weights_key
 from maopg.experiment.studies.grid import BUSY, Cell, run_grid
 from maopg.experiment.studies.plots import curve_table, plot_task
 from maopg.experiment.studies.published import plot_published, published_sections
@@ -231,11 +231,7 @@ def write_evaluation(
     for run in runs:
         if run.seed == 0 and (run.path / FINAL).exists():
             trained = load_trained(run.path / FINAL)
-            key = {
-                "episodes": episodes,
-                **behaviour([run.task], type(trained.policy)),
-                "weights": sha256([run.path / FINAL], run.path),
-            }
+            key = weights_key(episodes, run.task, type(trained.policy), run.path / FINAL)
             summaries += cached(
                 run.path / EVALUATION,
                 key,

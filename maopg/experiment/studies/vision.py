@@ -78,7 +78,7 @@ import numpy as np
 from maopg.experiment.evaluation.evaluate import evaluate
 from maopg.experiment.run.directory import FINAL
 from maopg.experiment.run.lock import held_elsewhere
-from maopg.experiment.studies.cache import behaviour, cached, sha256, stored
+from maopg.experiment.studies.cache import cached, stored, weights_key
 from maopg.experiment.studies.grid import BUSY, Cell, run_grid
 from maopg.experiment.studies.plots import plot_task
 from maopg.experiment.studies.registry import VISION, Study, StudyTask, frozen
@@ -225,11 +225,9 @@ def run_evaluation(run: RunData, episodes: int) -> list[dict] | None:
         return stored(path, {"looks_version": LOOKS_VERSION})
     trained = load_trained(weights)
     key = {
-        "episodes": episodes,
+        **weights_key(episodes, run.task, type(trained.policy), weights),
         "looks": list(evaluated_looks(run)),
         "looks_version": LOOKS_VERSION,
-        **behaviour([run.task], type(trained.policy)),
-        "weights": sha256([weights], run.path),
     }
     return cached(path, key, lambda: policy_looks(trained, run, episodes))
 
