@@ -1,4 +1,4 @@
-"""ACAC, Agent-Centric Actor-Critic (Xiao et al., ICML 2025), on this project's layers.
+"""ACAC, Agent-Centric Actor-Critic (Jung et al., ICML 2025), on this project's layers.
 
 Networks: :mod:`maopg.policy.agent_centric` (one recurrent actor per agent and an attention
 critic over the agents' own histories, each advancing only at its agent's decisions). One

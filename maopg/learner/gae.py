@@ -13,7 +13,7 @@ Two discount forms are supported (docs/DESIGN.md §5):
     durations are, so the methods (and ``end2end``, whose options last one tick) optimise one
     objective and their values are comparable.
 ``event``
-    ACAC's asynchronous form (Xiao et al. 2025): the semi-Markov ``δ_t``, with the trace decayed
+    ACAC's asynchronous form (Jung et al. 2025): the semi-Markov ``δ_t``, with the trace decayed
     by ``γ^{k_t} λ`` — λ once per decision event, however many ticks it lasted.
 ``option``
     The paper's form: treat an option step as one step, ``δ_t = R_t + γ V(z_{t+1}) − V(z_t)`` and

@@ -1,4 +1,4 @@
-"""ACAC's networks (Agent-Centric Actor-Critic; Xiao et al., ICML 2025): agent-centric history
+"""ACAC's networks (Agent-Centric Actor-Critic; Jung et al., ICML 2025): agent-centric history
 encoders that advance only at each agent's own decisions, one actor per agent, and a critic
 that attends across the agents' encodings.
 

@@ -7,6 +7,8 @@ from __future__ import annotations
 import csv
 import math
 import re
+from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -22,11 +24,14 @@ from maopg.experiment.studies.leaderboard import (
     Entry,
     aggregate_table,
     board_runs,
+    entries,
+    evaluated_budget,
     headline_table,
     headline_usage,
     reproduce_leaderboard,
 )
 from maopg.experiment.studies.option_usage import usage_table
+from maopg.experiment.studies.runs import RunData
 from maopg.experiment.studies.stats import iqm
 
 
@@ -91,6 +96,37 @@ def test_the_teams_of_eight_rank_no_product_categorical(board):
     )
 
 
+def _run(method: str, samples: np.ndarray, evaluations: np.ndarray, training: float) -> RunData:
+    """A finished run of ``method`` on the grid logging ``evaluations`` (``nan``: none that
+    iteration) and a training return of ``training`` throughout."""
+    metrics = {"episode_return": np.full(samples.size, training), "eval_return": evaluations}
+    return RunData(Path("-"), "box_pushing_grid", method, 0, samples, metrics, True, {})
+
+
+def test_a_board_that_evaluates_reads_every_run_at_its_budget_from_the_evaluations():
+    """On the 6x6 board (budget 500K, threshold 200): an ``async`` run's evaluations reach 299
+    by 300K while its ε-mixed training episodes read 39; an ``acac`` run that trains on to 2.5M
+    evaluates 39 up to 500K and 299 after it — it is read at 500K, 39, not at its end; one still
+    training is read where it stands."""
+    board = next(b for b in BOARDS if b.name == "box_pushing_grid_6")
+    assert evaluated_budget(board) == 500_000
+    assert evaluated_budget(BOARDS[0]) is None  # Tool Delivery: no evaluation logged
+    at = np.arange(1, 11) * 50_000.0
+    paper = _run("async", at, np.where(at >= 300_000, 299.0, 39.0), 39.0)
+    at_long = np.arange(1, 51) * 50_000.0
+    acac = _run("acac", at_long, np.where(at_long > 500_000, 299.0, 39.0), 299.0)
+    young = replace(_run("async", at[:4], np.full(4, 20.0), 20.0), finished=False, seed=1)
+    rows = entries(board, [paper, acac, young], (0.0, 300.0))
+    assert [(e.method, e.final_return, e.samples) for e in rows] == [
+        ("async", 299.0, 500_000),
+        ("acac", 39.0, 500_000),
+        ("async", 20.0, 200_000),
+    ]
+    assert rows[0].score == pytest.approx(299.0 / 300.0)
+    # the trailing mean of 5 evaluations passes 200 at the fourth at 299: 450K
+    assert (rows[0].to_threshold, math.isnan(rows[1].to_threshold)) == (450_000, True)
+
+
 def _entry(board: str, method: str, seed: int, score: float) -> Entry:
     return Entry(board, method, seed, score * 100, score, math.nan, True)
 
@@ -101,7 +137,7 @@ def test_the_aggregate_is_the_iqm_over_a_methods_boards():
     rows += [_entry("b", "x", s, v) for s, v in enumerate((10.0, 10.0))]
     rows += [_entry("a", "y", s, v) for s, v in enumerate((0.5, 0.5))]
     table = aggregate_table(boards, rows).splitlines()
-    # x over its two boards: IQM of (0, 1, 2, 3, 10, 10) = mean(2, 3, 10) ... a quarter is 1.
+    # x over its two boards: IQM of (0, 1, 2, 3, 10, 10) = mean(1, 2, 3, 10): a quarter is 1.
     assert iqm(np.array([0.0, 1.0, 2.0, 3.0, 10.0, 10.0])) == pytest.approx(4.0)
     assert table[2].startswith("| x | 2 | 4.00 [")
     assert table[3] == "| y | 1 | 0.50 [0.50, 0.50] |"

@@ -9,13 +9,22 @@ they are missing — so a leaderboard cell is never a second copy of a study's c
 study runs on that task trains under ``results/leaderboard/runs/<board>/`` at the board's
 settings plus its :attr:`Board.method_overrides`.
 
-The protocol, the same for every method and board: a run's **final return** is the mean
-training-episode return over its last 10 % of samples (:func:`~maopg.experiment.studies.runs.final`,
-the figure of every study's tables; every method logs it, while an evaluation during training
-exists only where a study asked for one), its **samples to threshold** the first iteration
-whose trailing mean over 5 logged iterations reaches the board's threshold. Its **normalised
-score** is ``(R − R_random) / (R_scripted − R_random)`` against the uniform-random and scripted
-policies measured at the board's settings (0: random, 1: the scripted heuristic).
+The protocol, the same for every method on a board: where the board's study evaluates the
+policy during training (the Box Pushing boards: 10 episodes sampled without ε, every 2,000
+samples), a run's **final return** is its value at the board's budget on maopg's counter —
+the mean of its last 5 evaluations at or before it, as the published curves are read
+(:func:`~maopg.experiment.studies.published.value_at`) — and its **samples to threshold** the
+first evaluation, within the budget, where that trailing mean reaches the board's threshold.
+Training episodes would not do there: they are ε-mixed on schedules that differ by method,
+and ACAC's and MacroMARL's rounds log only the episodes that finish within a round (their
+runs also train past the budget, for the published counter). Where the study logs no
+evaluation (the paper's tasks and the teams of eight, whose committed runs keep no weights but
+seed 0's), the final return is the mean training-episode return over the last 10 % of samples
+(:func:`~maopg.experiment.studies.runs.final`, the figure of every study's tables) and the
+samples to threshold the first iteration whose trailing mean over 5 logged iterations reaches
+the threshold. Its **normalised score** is ``(R − R_random) / (R_scripted − R_random)`` against
+the uniform-random and scripted policies measured at the board's settings (0: random, 1: the
+scripted heuristic).
 
 Per board: each method's budget, mean final return and normalised score with a percentile
 bootstrap 95 % interval over its seeds, its samples to threshold over the seeds that reach it,
@@ -46,6 +55,7 @@ from maopg.experiment.studies.builtin import (
 )
 from maopg.experiment.studies.grid import Cell, run_grid
 from maopg.experiment.studies.option_usage import USAGE_EPISODES, option_usage, usage_table
+from maopg.experiment.studies.published import EVAL_RETURN, LAST, value_at
 from maopg.experiment.studies.registry import (
     LEADERBOARD,
     PAPER,
@@ -117,9 +127,10 @@ TUNING_NOTE = (
     "falling over 50 episodes, chosen by pilots on Tool Delivery "
     "(`bench/analysis/few_episode_pilots.py`, "
     "`maopg.experiment.studies.builtin.FEW_EPISODES`). Budget: the samples (maopg's counter: "
-    "every simulated tick) a method's runs trained; on Box Pushing ACAC's and MacroMARL's runs "
-    "go on until their published counter (finished training episodes' ticks) passes the "
-    "board's, the budget their published curves are read at."
+    "every simulated tick) a method's runs are read at; on Box Pushing every method is read "
+    "at the board's budget, where ACAC's and MacroMARL's runs go on until their published "
+    "counter (finished training episodes' ticks) passes it, for the Box Pushing studies' "
+    "comparison with the published curves."
 )
 """What each :data:`TUNING` label means."""
 
@@ -258,7 +269,8 @@ class Entry:
     """Samples to the board's threshold (``nan``: never reached, or no threshold)."""
     finished: bool
     samples: float = math.nan
-    """The samples the run trained (maopg's counter)."""
+    """The samples the run was read at (maopg's counter): the samples it trained, or the
+    board's budget where the board reads evaluations and the run trained past it."""
 
 
 def board_runs(board: Board, root: Path) -> list[RunData]:
@@ -275,22 +287,52 @@ def board_runs(board: Board, root: Path) -> list[RunData]:
     return found
 
 
-def entries(
-    board: Board, runs: Sequence[RunData], levels: tuple[float, float] | None
-) -> list[Entry]:
-    """Each run of the board by the protocol (module docstring); ``levels``: the board's
-    ``(random, scripted)`` mean returns."""
-    threshold = get_study(board.study).task(board.task).threshold
-    out = []
-    for run in runs:
+def evaluated_budget(board: Board) -> float | None:
+    """The board's budget (maopg's counter) where its study evaluates the policy during
+    training (the Box Pushing boards), ``None`` where it does not."""
+    study = get_study(board.study)
+    if not dict(study.overrides).get("eval_every"):
+        return None
+    task = study.task(board.task)
+    return float({**study.overrides, **task.overrides}["total_samples"])
+
+
+def _read(run: RunData, threshold: float | None, budget: float | None) -> tuple[float, float]:
+    """``(final return, samples to threshold)`` of one run by the protocol (module docstring):
+    from its evaluations at the board's ``budget`` where the board has one, else from its
+    training episodes. A run that has not reached the budget yet is read where it stands."""
+    if budget is None:
         value = final(run, RETURN)
-        score = math.nan if levels is None else (value - levels[0]) / (levels[1] - levels[0])
         reached = (
             samples_to_threshold(run, threshold, RETURN, THRESHOLD_WINDOW)
             if threshold is not None
             else math.nan
         )
+        return value, reached
+    last = float(run.samples[-1]) if run.samples.size else math.nan
+    value = value_at(run, min(budget, last)) if run.samples.size else math.nan
+    reached = (
+        samples_to_threshold(run, threshold, EVAL_RETURN, LAST)
+        if threshold is not None and EVAL_RETURN in run.metrics
+        else math.nan
+    )
+    return value, reached if reached <= budget else math.nan
+
+
+def entries(
+    board: Board, runs: Sequence[RunData], levels: tuple[float, float] | None
+) -> list[Entry]:
+    """Each run of the board by the protocol (module docstring, :func:`_read`); ``levels``:
+    the board's ``(random, scripted)`` mean returns."""
+    threshold = get_study(board.study).task(board.task).threshold
+    budget = evaluated_budget(board)
+    out = []
+    for run in runs:
+        value, reached = _read(run, threshold, budget)
+        score = math.nan if levels is None else (value - levels[0]) / (levels[1] - levels[0])
         samples = float(run.samples[-1]) if run.samples.size else math.nan
+        if budget is not None:
+            samples = min(samples, budget)
         out.append(
             Entry(board.name, run.method, run.seed, value, score, reached, run.finished, samples)
         )
@@ -370,13 +412,15 @@ def _interval(scores: Sequence[np.ndarray]) -> str:
     return f"{iqm(np.concatenate(scores)):.2f} [{low:.2f}, {high:.2f}]"
 
 
+def _finished_scores(rows: Sequence[Entry]) -> list[Entry]:
+    """The entries of finished runs with a score: what the comparisons across boards read (a
+    run still training stands only in its board's table, marked running)."""
+    return [e for e in rows if e.finished and not math.isnan(e.score)]
+
+
 def _scores(rows: Sequence[Entry], board: str, method: str | None) -> np.ndarray:
     return np.array(
-        [
-            e.score
-            for e in rows
-            if e.board == board and e.method == method and not math.isnan(e.score)
-        ]
+        [e.score for e in _finished_scores(rows) if e.board == board and e.method == method]
     )
 
 
@@ -458,7 +502,7 @@ def plot_profile(rows: Sequence[Entry], out_stem: Path) -> list[Path]:
 
     fig, ax = plt.subplots(figsize=(7, 4.2))
     for method in dict.fromkeys(e.method for e in rows):
-        scores = np.array([e.score for e in rows if e.method == method and not math.isnan(e.score)])
+        scores = np.array([e.score for e in _finished_scores(rows) if e.method == method])
         if scores.size:
             profile = performance_profile(scores, PROFILE_TAUS)
             ax.plot(PROFILE_TAUS, profile, label=f"{method} ({scores.size} runs)")
@@ -533,11 +577,15 @@ def reproduce_leaderboard(
     ]
     text = (
         "# Leaderboard\n\nGenerated by `python -m eval reproduce --study leaderboard` from the "
-        "logged runs (the protocol: `maopg.experiment.studies.leaderboard`). Final return: the "
-        "mean training-episode return over a run's last 10 % of samples; normalised: (R − "
+        "logged runs (the protocol: `maopg.experiment.studies.leaderboard`). Final return: on "
+        "the boards whose study evaluates during training (Box Pushing), the value at the "
+        "board's budget — the mean of the last 5 evaluations at or before it, sampled without "
+        "ε —, elsewhere the mean training-episode return over a run's last 10 % of samples; "
+        "samples to threshold on the same figure; normalised: (R − "
         "R_random) / (R_scripted − R_random) at the board's settings; intervals: percentile "
         "bootstrap 95 % over seeds (10,000 resamples); across boards: the interquartile mean "
-        "with a stratified bootstrap interval (Agarwal et al., NeurIPS 2021). "
+        "with a stratified bootstrap interval (Agarwal et al., NeurIPS 2021), over finished "
+        "runs only (one still training stands only in its board's table). "
         + TUNING_NOTE
         + "\n\n## The paper's policy against the literature's\n\n"
         + headline_table(chosen, rows)

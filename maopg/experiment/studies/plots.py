@@ -30,6 +30,10 @@ METHOD_COLOURS = {
     "end2end": "tab:purple",
     "mac-dqn": "tab:orange",
     "partial": "tab:brown",
+    "acac": "tab:cyan",
+    "mac-iaicc": "tab:olive",
+    "mac-iac": "tab:pink",
+    "naive-mac-iacc": "tab:gray",
 }
 LINE_STYLES = ("-", "--", ":", "-.")
 """Dash patterns of a method's settings groups, in order."""

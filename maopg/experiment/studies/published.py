@@ -27,6 +27,7 @@ from __future__ import annotations
 import math
 import statistics
 from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -308,7 +309,9 @@ def validation_table(runs: Iterable[RunData], published: str) -> str:
     maopg's mean lies inside); then how many seeds deliver the big box at the last T (value
     ≥ :data:`BIG_BOX`) on either side, and Fisher's exact test of the two counts (it matches
     while p > :data:`MATCH_P`), and the value of the seeds that deliver it
-    (:func:`_big_box_seeds_row`). Empty where no validated method has runs."""
+    (:func:`_big_box_seeds_row`). A verdict is given once as many seeds as the published
+    (:data:`PUBLISHED_SEEDS`) have trained that far, ``—`` before. Empty where no validated
+    method has runs."""
     rows = []
     last = VALIDATION_SAMPLES[-1]
     for (task, label), group in selected_groups(runs, None):
@@ -320,7 +323,7 @@ def validation_table(runs: Iterable[RunData], published: str) -> str:
             theirs = [values[PUBLISHED_SAMPLES.index(t)] for values in seeds]
             ours = over_seeds(value_at(r, t, counter=PUBLISHED_COUNTER) for r in group)
             low, high = bootstrap_interval(theirs)
-            verdict = "—" if ours.count < len(group) else _yes(low <= ours.mean <= high)
+            verdict = "—" if ours.count < PUBLISHED_SEEDS else _yes(low <= ours.mean <= high)
             rows.append(
                 [
                     label,
@@ -336,7 +339,7 @@ def validation_table(runs: Iterable[RunData], published: str) -> str:
         theirs_big = sum(values[PUBLISHED_SAMPLES.index(last)] >= BIG_BOX for values in seeds)
         evaluated = sum(not math.isnan(v) for v in finals)
         p = fisher_exact(ours_big, evaluated, theirs_big, len(seeds)) if evaluated else math.nan
-        verdict = "—" if evaluated < len(group) else _yes(p > MATCH_P)
+        verdict = "—" if evaluated < PUBLISHED_SEEDS else _yes(p > MATCH_P)
         rows.append(
             [
                 label,
@@ -347,7 +350,7 @@ def validation_table(runs: Iterable[RunData], published: str) -> str:
                 verdict,
             ]
         )
-        rows.append(_big_box_seeds_row(label, finals, seeds, evaluated < len(group)))
+        rows.append(_big_box_seeds_row(label, finals, seeds, evaluated < PUBLISHED_SEEDS))
     header = [
         "method",
         "T (published counter)",
@@ -457,8 +460,8 @@ def published_sections(runs: Sequence[RunData], published: str) -> list[tuple[st
             f"gives p > {MATCH_P:g}. The big-box seeds' row sets maopg's seeds that deliver "
             "the big box against the published seeds that do: a mean over seeds mixes about "
             "299 with about 39, and where the published seeds include one at the small boxes "
-            "the interval of their mean ends below their best seed. `—`: not every seed has "
-            "trained that far yet. Mac-IAICC's "
+            "the interval of their mean ends below their best seed. `—`: fewer than the published "
+            f"{PUBLISHED_SEEDS} seeds have trained that far yet. Mac-IAICC's "
             "published settings and step counter are not published with its logs: its rows "
             "are its MacroMARL settings, read on the same counter as ACAC's.\n\n"
         )
@@ -472,6 +475,8 @@ def plot_published(runs: Sequence[RunData], out_stem: str | Path, published: str
     drawn at every evaluation), each seed's own line faint, and the published methods' value
     ± SD at :data:`PUBLISHED_SAMPLES` as markers (their per-row curves are not published), each
     method's a little to the side of T (:data:`DODGE`) so that their error bars stay apart.
+    A method whose runs log the published counter (ACAC's and MacroMARL's rounds) is drawn on
+    it, the axis its published values are read on; the axis ends at the last published T.
     Writes ``<out_stem>.png`` and ``.svg``."""
     import matplotlib
 
@@ -484,11 +489,15 @@ def plot_published(runs: Sequence[RunData], out_stem: str | Path, published: str
         colour = METHOD_COLOURS.get(family)
         style = "--" if family != base_method(label) else "-"
         evaluated = [r for r in group if EVAL_RETURN in r.metrics]
+        if evaluated and all(PUBLISHED_COUNTER in r.metrics for r in evaluated):
+            evaluated = [replace(r, samples=r.column(PUBLISHED_COUNTER)) for r in evaluated]
+            label = f"{label}, published counter"
         for run in evaluated:
             ax.plot(*run.curve(EVAL_RETURN, LAST), color=colour, ls=style, lw=0.7, alpha=0.3)
         at, mean, _ = mean_curve(evaluated, EVAL_RETURN, LAST)
         if at.size:
-            ax.plot(at, mean, color=colour, ls=style, lw=2, label=f"{label} ({len(group)} seeds)")
+            seeds = f"{len(group)} seed" + ("s" if len(group) > 1 else "")
+            ax.plot(at, mean, color=colour, ls=style, lw=2, label=f"{label} ({seeds})")
     methods = PUBLISHED[published]
     for k, ((method, values), marker) in enumerate(zip(methods.items(), "os^x", strict=True)):
         means, sds = zip(*values, strict=True)
@@ -503,7 +512,11 @@ def plot_published(runs: Sequence[RunData], out_stem: str | Path, published: str
             ms=5,
             label=f"{PUBLISHED_METHODS[method]}, published {published}",
         )
-    ax.set_xlabel("low-level steps, maopg's counter (every tick: stricter than the published)")
+    ax.set_xlabel(
+        "low-level steps: maopg's counter (every tick: stricter than the published),\n"
+        "or the published counter (finished training episodes' ticks) where a run logs it"
+    )
+    ax.set_xlim(0, PUBLISHED_SAMPLES[-1] * 1.04)
     ax.set_ylabel(f"evaluation return, mean of the last {LAST} evaluations")
     tasks = ", ".join(sorted({r.task for r in runs}))
     title = f"{tasks}: evaluation during training\nbeside the published {published} values ± SD"

@@ -16,6 +16,15 @@ and turns one 17% lighter about a far corner; two deliver one 15% heavier in one
 The masses are the Turtlebot's; a robot that pushes harder or softer needs its own, measured
 for the built-in ground robots in :data:`~maopg.tasks.box_pushing.config.ROBOT_SETTINGS`.
 
+**The robots' drives.** The benchmark's description speaks of differential-drive robots. This
+project's Turtlebot is the paper's: a holonomic planar base whose x/y slides and heading are
+servoed (:mod:`maopg.sim.robots.turtlebot`), so its push is bounded by its servos, not by wheel
+traction, and it travels to a waypoint in any direction (``Push`` drives it along its heading;
+the turns spin it on the spot). It stays the default because it is the robot of the paper's
+tasks and covers a grid cell per tick. The built-in differential drive, a free body moved only
+by its wheels' friction, is ``turtlebot_robot=diffbot`` with its settings of
+:data:`~maopg.tasks.box_pushing.config.ROBOT_SETTINGS`.
+
 Macro-actions (the grid's eight, in its order, each ending on the robot's own physics):
 
 - ``GoToSmallBox(0|1)``, ``GoToBigBox(left|right)``: the shared route navigation
