@@ -24,6 +24,8 @@ PY=.venv/bin/python
     echo
     "$PY" "bench/$script.py"
   done
+  echo
+  "$PY" bench/analysis/study_cost.py --leaderboard
 } > BENCHMARKS.md.tmp
 mv BENCHMARKS.md.tmp BENCHMARKS.md
 echo "wrote BENCHMARKS.md"

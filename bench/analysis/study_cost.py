@@ -1,26 +1,33 @@
-"""What the studies' runs cost: the wall time each finished run logged, per study and method,
-and what the cells still to train would take at that rate.
+"""What the studies' runs cost: the time each finished run trained, per study (or leaderboard
+board) and method, and what the cells still to train would take at that rate.
 
 Run: ``.venv/bin/python bench/analysis/study_cost.py [STUDY ...]`` (default: the Box Pushing
-studies). Prints its BENCHMARKS.md section (``bench/run_all.sh``), one Markdown table: per
-study and method, the finished runs, their wall time (the ``wall_time`` of a run's last logged
-row: training, its evaluations and checkpoints, resumed runs included, start-up left out) as
-mean and range in minutes, and the cells not finished with the hours they would take at the
-method's mean (:func:`rows` says where a rate is lent; ``?``: no rate to project).
+studies), or ``--leaderboard`` for the leaderboard's boards. Prints its BENCHMARKS.md section
+(``bench/run_all.sh``): per study and method, the finished runs, the minutes each trained as
+mean and range, and the cells not finished with the hours they would take at the method's mean
+(:func:`projected` says where a rate is lent; ``?``: no rate to project), then the totals.
 
-The runs shared a 2-core machine with one or two other runs and, at times, tests or
-benchmarks, and were paused while the test suite ran, so the wall time of one run is an upper
-bound on its CPU time and varies with the load; the range says by how much (a run's
-``samples_per_s`` column gives its rate iteration by iteration).
+A run's minutes are read from its ``wall_time`` column (training, its evaluations and
+checkpoints, resumed runs included, start-up left out), with one correction: the runs shared
+this 2-core machine with one or two other runs and were stopped (``SIGSTOP``) while the test
+suite or a benchmark ran, which shows as one iteration lasting minutes. An iteration longer than
+:data:`PAUSED` times the run's median iteration is counted as a median one. What is left is
+still an upper bound on a run's CPU time (a shared core runs slower), and the range says by how
+much it varies.
 """
 
 from __future__ import annotations
 
 import argparse
 import statistics
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+
+import numpy as np
 
 from maopg.experiment.studies import get_study
-from maopg.experiment.studies.runs import discover_runs
+from maopg.experiment.studies.leaderboard import BOARDS, Board, board_runs
+from maopg.experiment.studies.runs import RunData, discover_runs
 
 BOX_PUSHING = (
     "box-pushing-6",
@@ -29,77 +36,189 @@ BOX_PUSHING = (
     "box-pushing-mujoco",
     "box-pushing-mujoco-rgb",
 )
+PAUSED = 20
+"""An iteration this many times the run's median iteration or longer was a paused run."""
+LEADERBOARD_RUNS = Path("results/leaderboard/runs")
+"""Where the leaderboard trains the cells no study runs."""
 
 
-def minutes_by_method(names: list[str]) -> dict[tuple[str, str, str], list[float]]:
-    """(study, task, method) → the wall time in minutes of each finished run."""
-    found: dict[tuple[str, str, str], list[float]] = {}
+def trained_minutes(run: RunData) -> float:
+    """The minutes ``run`` trained: its logged wall time, every iteration longer than
+    :data:`PAUSED` medians counted as a median one."""
+    wall = run.column("wall_time")
+    steps = np.diff(np.concatenate([[0.0], wall[~np.isnan(wall)]]))
+    if steps.size > 2:
+        median = float(np.median(steps))
+        steps = np.where(steps > PAUSED * median, median, steps)
+    return float(steps.sum()) / 60
+
+
+def projected(
+    left: int, mine: Sequence[float], lent: Sequence[float], beside: Sequence[float] = ()
+) -> str:
+    """The hours ``left`` cells take at the mean of the method's own finished runs, else
+    (``≈``) at the mean of the same method's runs of the same task elsewhere, else (``~``) at
+    the mean of the other methods' runs ``beside`` it (a rough guess: methods differ), else
+    ``?``."""
+    if not left:
+        return "0.0"
+    for mark, values in (("", mine), ("≈ ", lent), ("~ ", beside)):
+        if values:
+            return f"{mark}{left * statistics.fmean(values) / 60:.1f}"
+    return "?"
+
+
+def _row(
+    name: str,
+    method: str,
+    cells: int,
+    mine: list[float],
+    lent: list[float],
+    beside: Sequence[float] = (),
+) -> list[str]:
+    spent = f"{statistics.fmean(mine):.0f} ({min(mine):.0f}–{max(mine):.0f})" if mine else "—"
+    left = cells - len(mine)
+    hours = projected(left, mine, lent, beside)
+    return [name, method, f"{len(mine)}/{cells}", spent, str(left), hours]
+
+
+def _kind(name: str) -> set[tuple[str, bool]]:
+    """The study's tasks, each with whether its runs see images: what costs alike."""
+    study = get_study(name)
+    return {(t.task, bool({**study.overrides, **t.overrides}.get("images"))) for t in study.tasks}
+
+
+def study_rows(names: Iterable[str]) -> list[list[str]]:
+    """One row per study and method (a method's rate is lent by the other studies given that
+    run the same task from the same observations: the grid's sizes lend each other theirs)."""
+    names = list(names)
+    minutes: dict[tuple[str, str, str], list[float]] = {}
     for name in names:
         root = get_study(name).runs_dir()
         for run in discover_runs([root]) if root.exists() else []:
             if run.finished:
-                key = (name, run.task, run.method)
-                found.setdefault(key, []).append(float(run.column("wall_time")[-1]) / 60)
-    return found
-
-
-def rows(names: list[str]) -> list[list[str]]:
-    """One row per study and method: runs, wall time, cells left and the hours they would take
-    (at the method's mean on this study's task, or, marked ≈, in the other studies given that
-    run the same task: the grid's sizes lend each other their rates)."""
-    minutes = minutes_by_method(names)
+                minutes.setdefault((name, run.task, run.method), []).append(trained_minutes(run))
     out = []
     for name in names:
         study = get_study(name)
+        tasks = {t.task for t in study.tasks}
         for method in study.methods:
             cells = sum(len(task.seeds) for task in study.tasks)
-            mine = [m for task in study.tasks for m in minutes.get((name, task.task, method), [])]
-            left = cells - len(mine)
-            spent = (
-                f"{statistics.fmean(mine):.0f} ({min(mine):.0f}–{max(mine):.0f})" if mine else "—"
-            )
+            mine = [m for task in tasks for m in minutes.get((name, task, method), [])]
             lent = [
                 m
                 for (other, task, meth), values in minutes.items()
                 for m in values
-                if meth == method and other != name and any(t.task == task for t in study.tasks)
+                if meth == method and other != name and _kind(other) == _kind(name)
             ]
-            if not left:
-                projected = "0.0"
-            elif mine:
-                projected = f"{left * statistics.fmean(mine) / 60:.1f}"
-            elif lent:
-                projected = f"≈ {left * statistics.fmean(lent) / 60:.1f}"
-            else:
-                projected = "?"
-            out.append([name, method, f"{len(mine)}/{cells}", spent, str(left), projected])
+            out.append(_row(name, method, cells, mine, lent))
     return out
+
+
+def _board_kind(board: Board) -> tuple[str, str, object]:
+    """What makes two boards' runs cost alike: the task, its settings but ``mask_options``
+    (the teams of eight with and without it), and the budget."""
+    study = get_study(board.study)
+    task = study.task(board.task)
+    settings = {k: v for k, v in task.settings.items() if k != "mask_options"}
+    budget = {**study.overrides, **task.overrides}.get("total_samples")
+    return board.task, repr(sorted(settings.items())), budget
+
+
+def board_rows() -> list[list[str]]:
+    """One row per leaderboard board and method, wherever its runs live (a study's or the
+    leaderboard's own folder); a method's rate is lent by its boards of the same task, team
+    and budget (:func:`_board_kind`)."""
+    minutes: dict[tuple[str, str], list[float]] = {}
+    for board in BOARDS:
+        for run in board_runs(board, LEADERBOARD_RUNS):
+            if run.finished:
+                minutes.setdefault((board.name, run.method), []).append(trained_minutes(run))
+    out = []
+    for board in BOARDS:
+        cells = len(get_study(board.study).task(board.task).seeds)
+        for method in board.methods:
+            lent = [
+                m
+                for other in BOARDS
+                if other.name != board.name and _board_kind(other) == _board_kind(board)
+                for m in minutes.get((other.name, method), [])
+            ]
+            beside = [
+                m
+                for (name, other), values in minutes.items()
+                if name == board.name and other != method
+                for m in values
+            ]
+            mine = minutes.get((board.name, method), [])
+            out.append(_row(board.name, method, cells, mine, lent, beside))
+    return out
+
+
+def _hours(rows: Sequence[Sequence[str]]) -> tuple[float, float, int]:
+    """The hours the finished runs took, the hours the cells left take where a rate is known,
+    and how many cells left have none."""
+    spent = left = 0.0
+    unknown = 0
+    for _, _, finished, minutes, cells, hours in rows:
+        if minutes != "—":
+            spent += int(finished.split("/")[0]) * float(minutes.split(" ")[0]) / 60
+        if hours == "?":
+            unknown += int(cells)
+        else:
+            left += float(hours.lstrip("≈~ "))
+    return spent, left, unknown
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("studies", nargs="*", default=list(BOX_PUSHING))
+    parser.add_argument("--leaderboard", action="store_true", help="the leaderboard's boards")
     args = parser.parse_args()
+    what = "study" if not args.leaderboard else "board"
     header = [
-        "study",
+        what,
         "method",
         "finished",
         "minutes a run: mean (range)",
         "cells left",
         "hours left at the mean",
     ]
-    print("### What the Box Pushing studies' runs took (`bench/analysis/study_cost.py`)\n")
+    if args.leaderboard:
+        rows = board_rows()
+        print(
+            "### What the leaderboard's runs took (`bench/analysis/study_cost.py --leaderboard`)\n"
+        )
+        source = (
+            "Read from the runs of each board, wherever they are committed (a study's\n"
+            "`results/<study>/runs`, or `results/leaderboard/runs`): "
+        )
+        lent = (
+            "≈: the rate of the same method on another board of the same task, team and\n"
+            "budget; ~: the mean rate of the other methods on the board, a rough guess"
+        )
+    else:
+        rows = study_rows(args.studies)
+        print("### What the Box Pushing studies' runs took (`bench/analysis/study_cost.py`)\n")
+        source = "Read from the runs committed under `results/<study>/runs`: "
+        lent = "≈: the rate of the same method on another size of the grid"
     print(
-        "Read from the runs committed under `results/<study>/runs`: the wall time each finished\n"
-        "run logged, on this 2-core machine shared with one or two other runs and paused while\n"
-        "the test suite ran (an upper bound on a run's CPU time), and the hours the cells left\n"
-        "would take at each method's mean (≈: the rate of the same method on another size of the\n"
-        "grid).\n"
+        source + "the minutes each finished run\n"
+        "trained on this 2-core machine, shared with one or two other runs (an upper bound on a\n"
+        f"run's CPU time; iterations over {PAUSED} medians long, the run stopped while tests ran,\n"
+        "counted as a median one), and the hours the cells left would take at each method's\n"
+        f"mean ({lent}).\n"
     )
     print("| " + " | ".join(header) + " |")
     print("|" + "---|" * len(header))
-    for row in rows(args.studies):
+    for row in rows:
         print("| " + " | ".join(row) + " |")
+    spent, left, unknown = _hours(rows)
+    unknown_note = f", and {unknown} cells with no rate yet" if unknown else ""
+    print(
+        f"\nIn all: {spent:.1f} hours in the finished runs, {left:.1f} hours in the cells "
+        f"left at the means{unknown_note}."
+    )
 
 
 if __name__ == "__main__":
