@@ -27,6 +27,12 @@ trajectory.
 - **Collection**: whole episodes in rounds (:func:`~maopg.learner.rounds.collect_round`), ε
   falling linearly over ``explore_decay`` episodes.
 
+The fourth sibling of the paper, **Mac-CAC**, does not come out of this code: its one actor is
+centralized, choosing the joint macro-action of the agents whose macro-actions ended from the
+joint history, with a centralized critic. That is the family of the paper maopg reproduces
+(``async`` and its recurrent and factored forms, trained by PPO), so it is not registered
+again here.
+
 From the authors' public code (MacroMARL), where the paper leaves a choice: the sizes
 (32-wide, critics Linear ×2 and a GRU), the γ^{e_k} weight of the policy gradient, critic and
 actor learning rates (3e-3, 3e-4) and their Box Pushing rounds (32 episodes, 32 environments,

@@ -230,6 +230,19 @@ def test_training_curve_survives_a_killed_actor_and_resumes(tmp_path, caplog):
     assert _rows(run) == _rows(tmp_path / "local")
 
 
+@pytest.mark.parametrize("method", ["acac", "mac-iaicc"])
+def test_the_literature_methods_train_the_same_curve_on_ray(tmp_path, method):
+    """ACAC's and Mac-IAICC's rounds restart every environment and throw away the episodes a
+    round leaves unfinished: through Ray actors their curves are the in-process ones."""
+    section = {"acac": "acac", "mac-iaicc": "maciaicc"}[method]
+    args = ["--task", "box_pushing_grid", "env.size=4", "--seed", "1", "--method", method]
+    args += ["--total-samples", "300", "num_envs=3", f"{section}.episodes_per_update=2"]
+    args += ["progress=false", "video=false", "eval_episodes=0"]
+    main([*args, "--run-dir", str(tmp_path / "local"), "backend=local"])
+    main([*args, "--run-dir", str(tmp_path / "ray"), "backend=ray", "num_workers=2"])
+    assert _rows(tmp_path / "ray") == _rows(tmp_path / "local")
+
+
 def _status(argv: list[str]) -> int:
     """``main``'s exit status, whether it returns it or argparse exits with it."""
     try:

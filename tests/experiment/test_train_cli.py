@@ -268,11 +268,13 @@ def test_a_recurrent_curve_does_not_depend_on_openmp_threads(tmp_path):
         ("tool_delivery", "threads", "async"),
         ("water_filling", "processes", "async"),  # its default: one worker per environment
         ("tool_delivery", "threads", "async-rnn"),
+        ("water_filling", "processes", "acac"),
     ],
 )
 def test_every_backend_gives_the_same_curve_as_in_process(tmp_path, task, backend, method):
     """From images; a recurrent run too (its GRU states live in the learner, never in the
-    environments' workers)."""
+    environments' workers), and ACAC, whose rounds (Mac-IAICC's too) restart and discard
+    episodes across the workers (Ray's backend: ``tests/env/test_ray_backend.py``)."""
     common = ["--task", task, "--seed", "2", "--total-samples", "240", *tiny(method), "--images"]
     main([*common, "--run-dir", str(tmp_path / "serial"), "backend=local"])
     main([*common, "--run-dir", str(tmp_path / backend), f"backend={backend}", "num_workers=0"])
