@@ -21,6 +21,8 @@ from maopg.experiment.studies.published import (
     PUBLISHED_SAMPLES,
     PUBLISHED_SEEDS,
     final_value,
+    first_at_threshold,
+    first_table,
     outcome,
     outcome_table,
     over_seeds,
@@ -110,6 +112,21 @@ def _counted(run: RunData, method: str, published_steps: np.ndarray) -> RunData:
     """``run`` as a run of ``method`` that also logs the published counter."""
     metrics = {**run.metrics, PUBLISHED_COUNTER: published_steps}
     return RunData(run.path, run.task, method, run.seed, run.samples, metrics, True, run.config)
+
+
+def test_first_t_is_where_the_mean_of_the_seeds_values_reaches_the_threshold():
+    """The published "first ≥ thr" on a 1,000-step grid, over the T both seeds reached (12K).
+    The mean of the values: 45 at 10K (30 and 60), 80 at 12K (40 and 120)."""
+    group = [FIRST, SECOND]
+    assert first_at_threshold(group, 40.0) == 10_000
+    assert first_at_threshold(group, 50.0) == 12_000
+    assert math.isnan(first_at_threshold(group, 100.0))  # SECOND's 14K is past FIRST's end
+    assert math.isnan(first_at_threshold(group, 1.0, counter=PUBLISHED_COUNTER))  # not logged
+    table = first_table(group, "bp10").splitlines()
+    assert table[0] == "| task | method | seeds | first T with the mean over seeds ≥ 200 |"
+    assert table[2] == "| box_pushing_grid | async | 2 | not reached |"
+    assert table[3] == "| bp10 (published) | ACAC | 5 | 135K |"
+    assert table[4] == "| bp10 (published) | Mac-IAICC | 5 | not reached |"
 
 
 def test_a_value_at_t_can_be_read_on_the_published_counter():

@@ -162,6 +162,18 @@ PUBLISHED: Mapping[str, Mapping[str, tuple[tuple[float, float], ...]]] = {
 }
 """Each published method's value at each of :data:`PUBLISHED_SAMPLES` as ``(mean, sample
 SD)`` over its seeds: the box-pushing reference's §9 table, to its rounding."""
+PUBLISHED_THRESHOLDS = {"bp6": 240.0, "bp8": 200.0, "bp10": 200.0}
+"""The published table's thresholds (box-pushing reference §9, "first ≥ thr")."""
+PUBLISHED_FIRST: Mapping[str, Mapping[str, float]] = {
+    "bp6": {"acac": 73_000, "mac_iaicc": 235_000, "mac_niacc": 294_000, "mappo": math.nan},
+    "bp8": {"acac": 107_000, "mac_iaicc": math.nan, "mac_niacc": math.nan, "mappo": math.nan},
+    "bp10": {"acac": 135_000, "mac_iaicc": math.nan, "mac_niacc": math.nan, "mappo": math.nan},
+}
+"""The published table's "first ≥ thr": the smallest T on a 1,000-step grid where the 5-seed
+mean of the values at T reaches the size's threshold (:data:`PUBLISHED_THRESHOLDS`); ``nan``:
+not reached by the end of the logs."""
+FIRST_GRID = 1_000
+"""Steps between the T at which :func:`first_at_threshold` tries the mean."""
 SAMPLES = "samples"
 """maopg's counter: every simulated tick of every environment."""
 PUBLISHED_COUNTER = "published_steps"
@@ -276,6 +288,45 @@ def value_table(
         name = PUBLISHED_METHODS[method]
         rows.append([f"{published} (published)", name, str(PUBLISHED_SEEDS), *cells])
     header = ["task", "method", "seeds", *(_thousands(t) for t in samples)]
+    return markdown_table(header, rows)
+
+
+def first_at_threshold(group: Sequence[RunData], threshold: float, counter: str = SAMPLES) -> float:
+    """The published table's "first ≥ thr" of a group of seeds: the smallest T on a
+    :data:`FIRST_GRID`-step grid at which the mean over the seeds of their values at T
+    (:func:`value_at` on ``counter``) reaches ``threshold``, over the T every seed has trained
+    to; ``nan`` if never."""
+    ends = []
+    for run in group:
+        steps = run.samples if counter == SAMPLES else run.metrics.get(counter)
+        if steps is None or not steps.size:
+            return math.nan
+        ends.append(float(steps[-1]))
+    for t in range(FIRST_GRID, int(min(ends)) + 1, FIRST_GRID):
+        if statistics.fmean(value_at(r, t, counter=counter) for r in group) >= threshold:
+            return float(t)
+    return math.nan
+
+
+def first_table(runs: Iterable[RunData], published: str) -> str:
+    """Per task × method the "first ≥ thr" of its seeds (:func:`first_at_threshold`) on
+    maopg's counter, again on the published counter for the methods that log it, then the
+    published rows of ``published``."""
+    threshold = PUBLISHED_THRESHOLDS[published]
+
+    def said(t: float) -> str:
+        return "not reached" if math.isnan(t) else _thousands(int(t))
+
+    rows = []
+    for (task, label), group in selected_groups(runs, None):
+        rows.append([task, label, str(len(group)), said(first_at_threshold(group, threshold))])
+        if all(PUBLISHED_COUNTER in r.metrics for r in group):
+            first = first_at_threshold(group, threshold, PUBLISHED_COUNTER)
+            rows.append([task, f"{label}, published counter", str(len(group)), said(first)])
+    for method, first in PUBLISHED_FIRST[published].items():
+        name = PUBLISHED_METHODS[method]
+        rows.append([f"{published} (published)", name, str(PUBLISHED_SEEDS), said(first)])
+    header = ["task", "method", "seeds", f"first T with the mean over seeds ≥ {threshold:g}"]
     return markdown_table(header, rows)
 
 
@@ -448,6 +499,17 @@ def published_sections(runs: Sequence[RunData], published: str) -> list[tuple[st
             intro + "\n" + value_table(runs, published),
         ),
         ("What each seed learns", outcomes + outcome_table(runs)),
+        (
+            "First T where the mean over seeds reaches the published threshold",
+            'The published table\'s "first ≥ thr" (box-pushing reference §9): the smallest T '
+            f"on a {FIRST_GRID:,}-step grid at which the mean over a method's seeds of their "
+            "values at T reaches the threshold of the size "
+            f"({PUBLISHED_THRESHOLDS[published]:g} for {published}), over the T every seed has "
+            "trained to. A row over fewer seeds than the published 5 is not yet comparable. "
+            "It reads the same evaluations as the values above; the samples-to-threshold "
+            "table further down reads the training episodes, which explore.\n\n"
+            + first_table(runs, published),
+        ),
     ]
     validation = validation_table(runs, published)
     if validation:
