@@ -105,6 +105,8 @@ class EnvSpec:
     image_channels: ImageChannels = RGB
     """What the planes of an image hold, their value ranges and dtype
     (:class:`~maopg.sim.channels.ImageChannels`): an encoder normalises each channel by it."""
+    state_size: int | None = None
+    """Length of the task's global state (:attr:`DecisionPoint.state`), ``None`` without one."""
 
     def __post_init__(self) -> None:
         if self.image_shape is not None and self.image_shape[2] != self.image_channels.planes:
@@ -162,6 +164,9 @@ class DecisionPoint:
     ticks: int = 0
     """Ticks elapsed since reset (the episode's low-level time)."""
     info: dict[str, Any] = field(default_factory=dict)
+    state: np.ndarray | None = None
+    """The task's global state at this point (float32 ``[EnvSpec.state_size]``) where the task
+    has one, for the critics that take it; no policy reads it."""
 
     @property
     def done(self) -> bool:
@@ -179,4 +184,5 @@ class DecisionPoint:
             running=self.running.copy(),
             available=tuple(a.copy() for a in self.available),
             info=copy.deepcopy(self.info),
+            state=None if self.state is None else self.state.copy(),
         )

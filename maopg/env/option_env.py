@@ -68,6 +68,7 @@ class OptionEnv:
             max_ticks=task.config.max_ticks,
             gamma=gamma,
             image_channels=channels,
+            state_size=task.global_state_size(),
         )
         self._executions: list[Execution | None] = [None] * n
         self._idle = np.zeros(n, dtype=bool)
@@ -238,6 +239,7 @@ class OptionEnv:
             truncated=truncated,
             ticks=self.task.ticks,
             info=info,
+            state=self.task.global_state(),
         )
 
     def _validate(self, joint_option: Sequence[int] | np.ndarray) -> np.ndarray:

@@ -9,6 +9,9 @@ trajectory.
 
   - ``history`` — **Mac-IAICC**: one *individual centralized* critic per agent, a GRU over the
     joint observation advanced at every decision point of the team, read at the agent's own;
+  - ``state`` — **Mac-IAICC as MacroMARL's Box Pushing scripts run it** (their ``MacIAISC``):
+    one critic per agent of the task's global state at the agent's own decision points, an
+    MLP (:class:`StateCritics`), for the tasks that report a state (``box_pushing_grid``);
   - ``own`` — **Mac-IAC**: one critic per agent over its own observations only;
   - ``joint`` — **Naive Mac-IACC**: one centralized critic, trained on the team's decision
     points; an agent's advantage for a macro-action is the team's advantage of the last joint
@@ -36,10 +39,10 @@ again here.
 From the authors' public code (MacroMARL), where the paper leaves a choice: the sizes
 (32-wide, critics Linear ×2 and a GRU), the γ^{e_k} weight of the policy gradient, critic and
 actor learning rates (3e-3, 3e-4) and their Box Pushing rounds (32 episodes, 32 environments,
-target every 128 episodes on 6x6, ε over 4,000 episodes). Its Box Pushing scripts run a
-state-reading critic; this reads the joint observation history as the paper describes, so it
-runs on every task. Every decision is trained on, one whose option the episode's end cut
-short included (that code drops those).
+target every 128 episodes on 6x6, ε over 4,000 episodes). Its Box Pushing scripts run the
+state-reading critics (``critic=state``); the default reads the joint observation history as
+the paper describes, so it runs on every task. Every decision is trained on, one whose option
+the episode's end cut short included (that code drops those).
 """
 
 from __future__ import annotations
@@ -118,6 +121,34 @@ class HistoryCritics(nn.Module):
             torch.zeros(episodes, len(self.cells), self.width, device=device),
         )
         return torch.stack([head(states[:, :, i]) for i, head in enumerate(self.heads)], 2)[..., 0]
+
+
+class StateCritics(nn.Module):
+    """One critic per agent of the task's global state: four leaky-ReLU layers ``width`` wide
+    (two in, then two where the history critics have their GRU) and a value head, as
+    MacroMARL's state-based critics. A state needs no memory, so each is read at any point."""
+
+    def __init__(self, spec: EnvSpec, width: int) -> None:
+        super().__init__()
+        if spec.state_size is None:
+            raise ValueError(f"task {spec.task!r} reports no global state for these critics")
+        self.nets = nn.ModuleList(
+            nn.Sequential(
+                leaky_mlp(spec.state_size, width),
+                leaky_mlp(width, width),
+                linear(width, 1, 1.0),
+            )
+            for _ in range(spec.num_agents)
+        )
+
+    def values(self, batch: Episodes, device: torch.device) -> Tensor:
+        """``[T, B, agents]`` values along the batch's points (the final point included)."""
+        states = batch.obs.states
+        if states is None:
+            raise ValueError("these critics read the global state but the batch has none")
+        states = states.to(device)
+        steps, episodes = batch.choosing.shape[:2]
+        return torch.cat([net(states) for net in self.nets], dim=-1).view(steps, episodes, -1)
 
 
 @dataclass
@@ -199,7 +230,12 @@ class MacIAICCLearner(RoundsLearner):
 
     def __init__(self, policy: AgentCentricPolicy, setup: LearnerSetup) -> None:
         cfg: MacIAICCConfig = setup.config
-        super().__init__(policy, setup, HistoryCritics(setup.spec, cfg.critic, cfg.width))
+        critics: nn.Module = (
+            StateCritics(setup.spec, cfg.width)
+            if cfg.critic == "state"
+            else HistoryCritics(setup.spec, cfg.critic, cfg.width)
+        )
+        super().__init__(policy, setup, critics)
 
     def _targets(self, batch: Episodes, agent_steps: list[MacroSteps]) -> list[Tensor]:
         """Each agent's ``y_k`` (or, ``joint``, the team's ``y`` per point) from the target."""

@@ -282,7 +282,7 @@ class ACACConfig(Settings):
         return falling_epsilon(self.explore_eps, self.explore_eps_end, self.explore_decay, episodes)
 
 
-CRITICS = ("history", "own", "joint")
+CRITICS = ("history", "own", "joint", "state")
 
 
 @dataclass
@@ -292,8 +292,9 @@ class MacIAICCConfig(Settings):
     PREFIX: ClassVar[str] = "maciaicc."
 
     critic: str = setting("history", choices=CRITICS)
-    """``history``: Mac-IAICC; ``own``: Mac-IAC; ``joint``: Naive Mac-IACC
-    (:mod:`maopg.learner.mac_iaicc`)."""
+    """``history``: Mac-IAICC; ``state``: Mac-IAICC with critics of the task's global state, as
+    MacroMARL's Box Pushing scripts run it (tasks with a state only); ``own``: Mac-IAC;
+    ``joint``: Naive Mac-IACC (:mod:`maopg.learner.mac_iaicc`)."""
     lr: float = setting(3e-4, gt=0.0)
     """Each actor's Adam learning rate."""
     critic_lr: float = setting(3e-3, gt=0.0)
@@ -321,3 +322,12 @@ class MacIAICCConfig(Settings):
     def exploration(self, episodes: int) -> float:
         """ε after ``episodes`` episodes of the counter."""
         return falling_epsilon(self.explore_eps, self.explore_eps_end, self.explore_decay, episodes)
+
+    def check_task(self, task: TaskConfig) -> None:
+        """Critics of the global state need a task that reports one (``HAS_STATE``)."""
+        if self.critic == "state" and not task.HAS_STATE:
+            raise ValueError(
+                "maciaicc.critic=state reads the task's global state, which this task does not "
+                "report; choose maciaicc.critic from history, own or joint (box_pushing_grid "
+                "has a state)"
+            )

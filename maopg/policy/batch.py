@@ -48,6 +48,9 @@ class ObsBatch:
     ticks: Tensor | None = None
     """``int64 [B]``: the ticks since reset at each point (:attr:`DecisionPoint.ticks`), for a
     network that embeds when an observation was received (ACAC's); ``None`` where not kept."""
+    states: Tensor | None = None
+    """``float32 [B, S]``: the task's global state at each point (:attr:`DecisionPoint.state`),
+    for a critic that reads it; ``None`` where the task has none or it is not kept."""
 
     @staticmethod
     def from_decision_points(points: Sequence[DecisionPoint]) -> ObsBatch:
@@ -61,7 +64,10 @@ class ObsBatch:
         if points[0].images is not None:
             images = torch.from_numpy(np.stack([p.images for p in points]))
         ticks = torch.tensor([p.ticks for p in points], dtype=torch.int64)
-        return ObsBatch(torch.from_numpy(vectors), images, ticks=ticks)
+        states = None
+        if points[0].state is not None:
+            states = torch.from_numpy(np.stack([p.state for p in points]).astype(np.float32))
+        return ObsBatch(torch.from_numpy(vectors), images, ticks=ticks, states=states)
 
     def __len__(self) -> int:
         return self.vectors.shape[0]
@@ -72,17 +78,19 @@ class ObsBatch:
         if isinstance(index, int):
             index = slice(index, index + 1)
         ticks = None if self.ticks is None else self.ticks[index]
+        states = None if self.states is None else self.states[index]
         if self.image_index is not None:
             bank, rows = compact_bank(self.images, self.image_index[index])  # type: ignore[arg-type]
-            return ObsBatch(self.vectors[index], bank, rows, ticks)
+            return ObsBatch(self.vectors[index], bank, rows, ticks, states)
         images = None if self.images is None else self.images[index]
-        return ObsBatch(self.vectors[index], images, ticks=ticks)
+        return ObsBatch(self.vectors[index], images, ticks=ticks, states=states)
 
     def to(self, device: torch.device | str) -> ObsBatch:
         images = None if self.images is None else self.images.to(device)
         index = None if self.image_index is None else self.image_index.to(device)
         ticks = None if self.ticks is None else self.ticks.to(device)
-        return ObsBatch(self.vectors.to(device), images, index, ticks)
+        states = None if self.states is None else self.states.to(device)
+        return ObsBatch(self.vectors.to(device), images, index, ticks, states)
 
     def dense_images(self) -> Tensor | None:
         """``[B, N, H, W, planes]`` whatever the form (a banked batch gathers its bank)."""

@@ -162,6 +162,16 @@ class Task(ABC):
         """A fresh float32 observation vector of the agent (called when its option ends), laid
         out as :meth:`observation_layout`."""
 
+    def global_state_size(self) -> int | None:
+        """Length of :meth:`global_state`; ``None`` for a task without one (its settings'
+        ``HAS_STATE`` says which)."""
+        return None
+
+    def global_state(self) -> np.ndarray | None:
+        """The task's global state now (float32, :meth:`global_state_size` long), for a critic
+        that takes one (``maciaicc.critic=state``); no policy reads it. ``None`` by default."""
+        return None
+
     def render(self, agents: Sequence[int], out: np.ndarray) -> None:
         """Render the listed agents' cameras into ``out[agent]`` (``[N, H, W, planes]`` of
         :meth:`image_channels`; colour only: uint8 ``[N, H, W, 3]``)."""

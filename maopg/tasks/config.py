@@ -36,6 +36,11 @@ class TaskConfig(Settings):
     primitive: bool = False
     """Give agents one-tick primitive actions instead of options (end2end baseline)."""
 
+    HAS_STATE: ClassVar[bool] = False
+    """Whether the task reports a global state (:meth:`maopg.tasks.base.Task.global_state`), for the
+    critics that take one: known from the settings' class, so a run that needs it is refused
+    before anything is built."""
+
     def advice(self) -> list[str]:
         """What a run says at its start about these settings: a combination that runs, but
         that behaves otherwise than a user likely means (none by default)."""

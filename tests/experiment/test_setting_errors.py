@@ -120,6 +120,14 @@ def test_a_replay_that_cannot_hold_an_episode_is_refused_before_anything_runs():
     assert small.resolved().learner.buffer_size == 100
 
 
+def test_critics_of_the_state_are_refused_on_a_task_without_one():
+    config = TrainConfig(method="mac-iaicc", learner=MacIAICCConfig(critic="state"))
+    with pytest.raises(ValueError, match=r"^maciaicc\.critic=state reads the task's global state"):
+        config.resolved()
+    config.task = "box_pushing_grid"
+    assert config.resolved().learner.critic == "state"
+
+
 def test_the_round_learners_sections_check_their_bounds():
     with pytest.raises(ValueError, match=r"^acac\.lr must be > 0, got -1\.0$"):
         ACACConfig(lr=-1.0)

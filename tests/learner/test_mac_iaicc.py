@@ -8,11 +8,13 @@ import numpy as np
 import pytest
 import torch
 
+from maopg.env import make_env
 from maopg.env.vector import EnvConfig, SeededVectorEnv
 from maopg.learner.mac_iaicc import (
     HistoryCritics,
     MacIAICCConfig,
     MacIAICCLearner,
+    StateCritics,
     macro_steps,
     n_step_targets,
 )
@@ -129,7 +131,37 @@ def test_a_centralized_critic_reads_every_team_point_and_an_own_critic_only_its_
     assert torch.equal(after[1][t, b, 1], before[1][t, b, 1])
 
 
-@pytest.mark.parametrize("critic", ["history", "own", "joint"])
+def test_state_critics_read_the_grids_state_at_each_point_and_nothing_else(setup_for, envs):
+    """MacroMARL's Box Pushing critics (``critic=state``): the batch carries the grid's 18-float
+    state at every point, each agent's critic reads it there and only there, and not the
+    agents' observations."""
+    assert envs.spec.state_size == 18
+    learner = _learner(setup_for, envs, "state")
+    assert isinstance(learner.critic, StateCritics)
+    batch, _, _ = collect_round(
+        envs, learner.policy, 1.0, 2, torch.Generator().manual_seed(0), torch.device("cpu")
+    )
+    steps, episodes = batch.choosing.shape[:2]
+    states = batch.obs.states
+    assert states is not None and states.shape == (steps * episodes, 18)
+    # the first point's: the canonical layout's, as a fresh environment reports it at reset
+    reset = make_env("box_pushing_grid", "continue").reset().state
+    assert torch.equal(states.view(steps, episodes, 18)[0, 0], torch.from_numpy(reset))
+    before = learner.critic.values(batch, torch.device("cpu"))
+    assert before.shape == (steps, episodes, 2)
+    t, b = 1, 0
+    changed = states.clone().view(steps, episodes, 18)
+    changed[t, b] += 0.5
+    vectors = batch.obs.vectors + 1.0  # the observations: not read
+    batch.obs = dataclasses.replace(
+        batch.obs, vectors=vectors, states=changed.view(steps * episodes, 18)
+    )
+    after = learner.critic.values(batch, torch.device("cpu"))
+    moved = (after != before).any(-1)
+    assert moved[t, b] and moved.sum() == 1
+
+
+@pytest.mark.parametrize("critic", ["history", "own", "joint", "state"])
 def test_a_round_and_an_update_of_each_sibling(setup_for, envs, critic):
     learner = _learner(setup_for, envs, critic)
     before = [p.clone() for p in learner.policy.parameters()]

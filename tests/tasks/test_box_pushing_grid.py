@@ -356,8 +356,8 @@ def test_the_state_is_the_canonical_18_floats() -> None:
     env.reset()
     expected = [1 / 12, 0.25, 0, 1, 0, 0, 11 / 12, 0.25, 0, 0, 0, 1]
     expected += [1 / 12, 3.5 / 6, 11 / 12, 3.5 / 6, 0.5, 3.5 / 6]
-    np.testing.assert_allclose(env.task.state(), expected, rtol=1e-6)
-    assert env.task.state().dtype == np.float32
+    np.testing.assert_allclose(env.task.global_state(), expected, rtol=1e-6)
+    assert env.task.global_state().dtype == np.float32
     env.close()
 
 

@@ -75,6 +75,12 @@ def test_spec_spaces_and_the_reset_point_agree(task: str, settings: dict) -> Non
             assert mask.shape == (agent.num_options,) and mask.dtype == bool and mask.any()
         assert point.choosing.all() and (point.running == -1).all()
         assert point.duration == 0 and point.ticks == 0 and not point.done
+        # a global state, where the task's settings declare one, of the length its spec says
+        assert (spec.state_size is not None) == type(env.task.config).HAS_STATE
+        if spec.state_size is None:
+            assert point.state is None
+        else:
+            assert point.state.shape == (spec.state_size,) and point.state.dtype == np.float32
         parallel = OptionParallelEnv(env)
         observations, _ = parallel.reset(seed=0)
         for name, obs in observations.items():
@@ -115,6 +121,8 @@ def test_a_random_episode_keeps_the_contract(task: str, settings: dict, strategy
         assert point.done or point.choosing.any()
         for vector, agent in zip(point.vectors, env.spec.agents, strict=True):
             assert vector.shape == (agent.vector_size,) and np.isfinite(vector).all()
+        if env.spec.state_size is not None:
+            assert point.state.shape == (env.spec.state_size,) and np.isfinite(point.state).all()
         if strategy == "primitive":
             assert point.duration == 1
         if strategy in ("any", "all", "primitive") and not point.done:

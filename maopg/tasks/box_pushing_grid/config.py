@@ -4,6 +4,7 @@ overrides without importing the rules."""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import ClassVar
 
 from maopg.settings import setting
 from maopg.tasks.config import TaskConfig
@@ -16,6 +17,8 @@ and 10: the ACAC runs)."""
 @dataclass(frozen=True)
 class Config(TaskConfig):
     """Box Pushing settings; the defaults are those of the reference's published runs (bp6)."""
+
+    HAS_STATE: ClassVar[bool] = True
 
     size: int = setting(6, choices=SIZES)
     """Side of the square grid, in cells."""

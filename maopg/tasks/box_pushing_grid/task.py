@@ -134,7 +134,11 @@ class BoxPushingGrid(Task):
     def observe(self, agent: int) -> np.ndarray:
         return self.world.observations[agent].copy()
 
-    def state(self) -> np.ndarray:
+    def global_state_size(self) -> int:
+        """Per agent its position and a one-hot heading, then the three boxes' positions."""
+        return 6 * len(self.agent_names) + 6
+
+    def global_state(self) -> np.ndarray:
         """The canonical global state (float32; 18 values for two agents, 24 for three): for a
         critic that takes one. No policy reads it."""
         return self.world.state()
