@@ -35,6 +35,7 @@ BOX_PUSHING = (
     "box-pushing-10",
     "box-pushing-mujoco",
     "box-pushing-mujoco-rgb",
+    "mac-iaicc-history",
 )
 PAUSED = 20
 """An iteration this many times the run's median iteration or longer was a paused run."""
