@@ -11,7 +11,7 @@ trajectory.
     joint observation advanced at every decision point of the team, read at the agent's own;
   - ``state`` — **Mac-IAICC as MacroMARL's Box Pushing scripts run it** (their ``MacIAISC``):
     one critic per agent of the task's global state at the agent's own decision points, an
-    MLP (:class:`StateCritics`), for the tasks that report a state (``box_pushing_grid``);
+    MLP (:class:`StateCritics`), for the tasks that report a state (the Box Pushing tasks);
   - ``own`` — **Mac-IAC**: one critic per agent over its own observations only;
   - ``joint`` — **Naive Mac-IACC**: one centralized critic, trained on the team's decision
     points; an agent's advantage for a macro-action is the team's advantage of the last joint

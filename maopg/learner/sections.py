@@ -293,8 +293,8 @@ class MacIAICCConfig(Settings):
 
     critic: str = setting("history", choices=CRITICS)
     """``history``: Mac-IAICC; ``state``: Mac-IAICC with critics of the task's global state, as
-    MacroMARL's Box Pushing scripts run it (tasks with a state only); ``own``: Mac-IAC;
-    ``joint``: Naive Mac-IACC (:mod:`maopg.learner.mac_iaicc`)."""
+    MacroMARL's Box Pushing scripts run it (tasks with a state only: the Box Pushing tasks);
+    ``own``: Mac-IAC; ``joint``: Naive Mac-IACC (:mod:`maopg.learner.mac_iaicc`)."""
     lr: float = setting(3e-4, gt=0.0)
     """Each actor's Adam learning rate."""
     critic_lr: float = setting(3e-3, gt=0.0)
@@ -328,6 +328,6 @@ class MacIAICCConfig(Settings):
         if self.critic == "state" and not task.HAS_STATE:
             raise ValueError(
                 "maciaicc.critic=state reads the task's global state, which this task does not "
-                "report; choose maciaicc.critic from history, own or joint (box_pushing_grid "
-                "has a state)"
+                "report; choose maciaicc.critic from history, own or joint (the Box Pushing "
+                "tasks have one)"
             )

@@ -74,6 +74,26 @@ def at_the_big_box(env: OptionEnv) -> DecisionPoint:
 
 
 # --------------------------------------------------------------------------- cooperation
+@pytest.mark.parametrize("settings", [{}, {"size": 8, "agents": 3}], ids=["6x6", "8x8-three"])
+def test_the_global_state_is_the_grids_read_off_the_physics(settings: dict) -> None:
+    """At reset, exactly the grid's 18 (24) floats; along the scripted episode, the big box's
+    entries follow its body north to the goal: what Mac-IAICC's state critics read in MuJoCo
+    as on the grid."""
+    grid = make_env("box_pushing_grid", overrides=settings).reset().state
+    env = make_env("box_pushing", overrides=settings)
+    seen: list[DecisionPoint] = []
+    try:
+        run_episode(env, reference_policy("scripted", env), seed=0, on_step=seen.append)
+    finally:
+        env.close()
+    assert seen[0].state is not None and np.array_equal(seen[0].state, grid)
+    big_box_y = 6 * env.num_agents + 5
+    size = settings.get("size", 6)
+    assert seen[-1].info["episode"]["solved"]
+    assert seen[-1].state[big_box_y] > seen[0].state[big_box_y]
+    assert seen[-1].state[big_box_y] * size > size - 1  # its centre in the goal row
+
+
 def test_one_robot_cannot_move_the_big_box() -> None:
     """One Turtlebot pushes with at most 180 N (its slide servos' gain, 300 N s/m, times its
     top speed, 0.6 m/s); the big box (47 kg on a floor of friction 0.6) takes 277 N to slide.

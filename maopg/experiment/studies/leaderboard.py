@@ -200,12 +200,12 @@ class Board:
 def _boards() -> tuple[Board, ...]:
     """The leaderboard's boards (module docstring): the issue's tasks, each at its committed
     study's settings. In MuJoCo's Box Pushing ACAC and Mac-IAICC collect as on the grid (32
-    environments, γ 0.98, Mac-IAICC's 6x6 targets and ε) within the study's budget, Mac-IAICC
-    with its history critics (the MuJoCo task reports no global state); on the
+    environments, γ 0.98, Mac-IAICC's 6x6 targets, ε and state critics, the task reporting the
+    grid's state read off its physics) within the study's budget; on the
     other tasks, whose budgets hold hundreds of episodes, they take their few-episode settings
     (:data:`~maopg.experiment.studies.builtin.FEW_EPISODES`)."""
     grid_methods = (*BOX_PUSHING_METHODS, *AGENT_METHODS)
-    mujoco = {k: v for k, v in macromarl(6, "history")["mac-iaicc"].items() if k != "total_samples"}
+    mujoco = {k: v for k, v in macromarl(6)["mac-iaicc"].items() if k != "total_samples"}
     few = {"method_overrides": FEW_EPISODES, "tuning": FEW_EPISODES_TUNING}
     return (
         Board(

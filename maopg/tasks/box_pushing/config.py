@@ -35,6 +35,8 @@ class Config(SceneTaskConfig):
     newtons. The physical defaults are calibrated for the Turtlebot (see
     ``maopg/tasks/box_pushing/task.py`` for what they measure to)."""
 
+    HAS_STATE: ClassVar[bool] = True
+
     size: int = setting(6, choices=SIZES)
     """Side of the square arena, in cells (the grid's sizes)."""
     agents: int = setting(2, choices=(2, 3))

@@ -16,6 +16,9 @@ and turns one 17% lighter about a far corner; two deliver one 15% heavier in one
 The masses are the Turtlebot's; a robot that pushes harder or softer needs its own, measured
 for the built-in ground robots in :data:`~maopg.tasks.box_pushing.config.ROBOT_SETTINGS`.
 
+**Global state**: the grid's 18 floats (24 for three robots), read off the physics
+(:meth:`BoxPushing.global_state`), for the critics that take one; no policy reads it.
+
 **The robots' drives.** The benchmark's description speaks of differential-drive robots. This
 project's Turtlebot is the paper's: a holonomic planar base whose x/y slides and heading are
 servoed (:mod:`maopg.sim.robots.turtlebot`), so its push is bounded by its servos, not by wheel
@@ -356,6 +359,24 @@ class BoxPushing(SceneTask):
         return Obstacles(boxes, discs)
 
     # ----------------------------------------------------------------- observations
+    def global_state_size(self) -> int:
+        """The grid's: per agent its position and a one-hot heading, then the three boxes'."""
+        return 6 * len(self.agent_names) + 6
+
+    def global_state(self) -> np.ndarray:
+        """The grid's global state read off the physics: per robot its position in cells over
+        the side and its heading (the compass direction it faces most nearly) one-hot, then
+        each box's centre in cells over the side; at reset, exactly the grid's."""
+        n, values = float(self.arena.size), []
+        for agent in range(len(self.agent_robots)):
+            x, y = self.planar_position(agent)
+            heading = self.heading(agent)
+            values += [x / self.arena.cell / n, y / self.arena.cell / n]
+            values += [float(heading == o) for o in range(4)]
+        for x, y, _ in self._box_poses():
+            values += [x / self.arena.cell / n, y / self.arena.cell / n]
+        return np.array(values, dtype=np.float32)
+
     def observe(self, agent: int) -> np.ndarray:
         arena, pos, heading = self.arena, self.planar_position(agent), self.heading(agent)
         poses = self._box_poses()
