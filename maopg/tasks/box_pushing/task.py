@@ -98,6 +98,7 @@ from maopg.tasks.box_pushing_grid.world import (
     NORTH,
     ORIENTATIONS,
     agent_names,
+    state_vector,
 )
 from maopg.tasks.layout import ObsLayout
 
@@ -367,15 +368,11 @@ class BoxPushing(SceneTask):
         """The grid's global state read off the physics: per robot its position in cells over
         the side and its heading (the compass direction it faces most nearly) one-hot, then
         each box's centre in cells over the side; at reset, exactly the grid's."""
-        n, values = float(self.arena.size), []
-        for agent in range(len(self.agent_robots)):
-            x, y = self.planar_position(agent)
-            heading = self.heading(agent)
-            values += [x / self.arena.cell / n, y / self.arena.cell / n]
-            values += [float(heading == o) for o in range(4)]
-        for x, y, _ in self._box_poses():
-            values += [x / self.arena.cell / n, y / self.arena.cell / n]
-        return np.array(values, dtype=np.float32)
+        cell = self.arena.cell
+        positions = [self.planar_position(i) for i in range(len(self.agent_robots))]
+        robots = [(x / cell, y / cell, self.heading(i)) for i, (x, y) in enumerate(positions)]
+        boxes = [(x / cell, y / cell) for x, y, _ in self._box_poses()]
+        return state_vector(robots, boxes, self.arena.size)
 
     def observe(self, agent: int) -> np.ndarray:
         arena, pos, heading = self.arena, self.planar_position(agent), self.heading(agent)

@@ -419,16 +419,12 @@ class GridWorld:
         return np.array(bits, dtype=np.float32)
 
     def state(self) -> np.ndarray:
-        """The canonical global state (``get_state``): per agent ``x/n, y/n`` and a one-hot
-        orientation (N, E, S, W), then ``x/n, y/n`` of small box 0, small box 1 and the big box
-        (its centre): 18 floats for two agents."""
-        n = float(self.layout.size)
-        values: list[float] = []
-        for agent in self.agents:
-            values += [agent.x / n, agent.y / n, *(float(agent.ori == o) for o in range(4))]
-        for box in self.boxes:
-            values += [box.x / n, box.y / n]
-        return np.array(values, dtype=np.float32)
+        """The canonical global state (:func:`state_vector`)."""
+        return state_vector(
+            [(a.x, a.y, a.ori) for a in self.agents],
+            [(b.x, b.y) for b in self.boxes],
+            self.layout.size,
+        )
 
     def delivered(self) -> tuple[bool, bool, bool]:
         """Whether small box 0, small box 1 and the big box are on the goal row."""
@@ -439,3 +435,18 @@ class GridWorld:
     def terminated(self) -> bool:
         """A box has been delivered (every delivery ends the episode)."""
         return any(self.delivered())
+
+
+def state_vector(
+    agents: Sequence[tuple[float, float, int]], boxes: Sequence[tuple[float, float]], size: int
+) -> np.ndarray:
+    """The canonical global state (``get_state``): per agent ``x/n, y/n`` (cells) and a one-hot
+    orientation (N, E, S, W), then ``x/n, y/n`` of small box 0, small box 1 and the big box
+    (its centre): 18 floats for two agents. The grid's and the MuJoCo task's, alike."""
+    n = float(size)
+    values: list[float] = []
+    for x, y, ori in agents:
+        values += [x / n, y / n, *(float(ori == o) for o in range(4))]
+    for x, y in boxes:
+        values += [x / n, y / n]
+    return np.array(values, dtype=np.float32)
