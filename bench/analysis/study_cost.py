@@ -21,6 +21,7 @@ from __future__ import annotations
 import argparse
 import statistics
 from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -54,19 +55,43 @@ def trained_minutes(run: RunData) -> float:
     return float(steps.sum()) / 60
 
 
+@dataclass(frozen=True)
+class Cost:
+    """One row: a study's (or board's) method, the minutes its finished runs trained, and the
+    hours its ``left`` cells take where a rate is known (``mark`` says whose rate:
+    :func:`projected`)."""
+
+    name: str
+    method: str
+    cells: int
+    minutes: tuple[float, ...]
+    hours: float | None
+    mark: str
+
+    @property
+    def left(self) -> int:
+        return self.cells - len(self.minutes)
+
+    def cells_text(self) -> list[str]:
+        mine = self.minutes
+        spent = f"{statistics.fmean(mine):.0f} ({min(mine):.0f}–{max(mine):.0f})" if mine else "—"
+        hours = "?" if self.hours is None else f"{self.mark}{self.hours:.1f}"
+        return [self.name, self.method, f"{len(mine)}/{self.cells}", spent, str(self.left), hours]
+
+
 def projected(
     left: int, mine: Sequence[float], lent: Sequence[float], beside: Sequence[float] = ()
-) -> str:
+) -> tuple[float | None, str]:
     """The hours ``left`` cells take at the mean of the method's own finished runs, else
     (``≈``) at the mean of the same method's runs of the same task elsewhere, else (``~``) at
     the mean of the other methods' runs ``beside`` it (a rough guess: methods differ), else
-    ``?``."""
+    none."""
     if not left:
-        return "0.0"
+        return 0.0, ""
     for mark, values in (("", mine), ("≈ ", lent), ("~ ", beside)):
         if values:
-            return f"{mark}{left * statistics.fmean(values) / 60:.1f}"
-    return "?"
+            return left * statistics.fmean(values) / 60, mark
+    return None, ""
 
 
 def _row(
@@ -76,11 +101,9 @@ def _row(
     mine: list[float],
     lent: list[float],
     beside: Sequence[float] = (),
-) -> list[str]:
-    spent = f"{statistics.fmean(mine):.0f} ({min(mine):.0f}–{max(mine):.0f})" if mine else "—"
-    left = cells - len(mine)
-    hours = projected(left, mine, lent, beside)
-    return [name, method, f"{len(mine)}/{cells}", spent, str(left), hours]
+) -> Cost:
+    hours, mark = projected(cells - len(mine), mine, lent, beside)
+    return Cost(name, method, cells, tuple(mine), hours, mark)
 
 
 def _kind(name: str) -> set[tuple[str, bool]]:
@@ -89,7 +112,7 @@ def _kind(name: str) -> set[tuple[str, bool]]:
     return {(t.task, bool({**study.overrides, **t.overrides}.get("images"))) for t in study.tasks}
 
 
-def study_rows(names: Iterable[str]) -> list[list[str]]:
+def study_rows(names: Iterable[str]) -> list[Cost]:
     """One row per study and method (a method's rate is lent by the other studies given that
     run the same task from the same observations: the grid's sizes lend each other theirs)."""
     names = list(names)
@@ -99,7 +122,7 @@ def study_rows(names: Iterable[str]) -> list[list[str]]:
         for run in discover_runs([root]) if root.exists() else []:
             if run.finished:
                 minutes.setdefault((name, run.task, run.method), []).append(trained_minutes(run))
-    out = []
+    out: list[Cost] = []
     for name in names:
         study = get_study(name)
         tasks = {t.task for t in study.tasks}
@@ -126,7 +149,7 @@ def _board_kind(board: Board) -> tuple[str, str, object]:
     return board.task, repr(sorted(settings.items())), budget
 
 
-def board_rows() -> list[list[str]]:
+def board_rows() -> list[Cost]:
     """One row per leaderboard board and method, wherever its runs live (a study's or the
     leaderboard's own folder); a method's rate is lent by its boards of the same task, team
     and budget (:func:`_board_kind`)."""
@@ -135,7 +158,7 @@ def board_rows() -> list[list[str]]:
         for run in board_runs(board, LEADERBOARD_RUNS):
             if run.finished:
                 minutes.setdefault((board.name, run.method), []).append(trained_minutes(run))
-    out = []
+    out: list[Cost] = []
     for board in BOARDS:
         cells = len(get_study(board.study).task(board.task).seeds)
         for method in board.methods:
@@ -156,18 +179,12 @@ def board_rows() -> list[list[str]]:
     return out
 
 
-def _hours(rows: Sequence[Sequence[str]]) -> tuple[float, float, int]:
+def _hours(rows: Sequence[Cost]) -> tuple[float, float, int]:
     """The hours the finished runs took, the hours the cells left take where a rate is known,
     and how many cells left have none."""
-    spent = left = 0.0
-    unknown = 0
-    for _, _, finished, minutes, cells, hours in rows:
-        if minutes != "—":
-            spent += int(finished.split("/")[0]) * float(minutes.split(" ")[0]) / 60
-        if hours == "?":
-            unknown += int(cells)
-        else:
-            left += float(hours.lstrip("≈~ "))
+    spent = sum(sum(row.minutes) for row in rows) / 60
+    left = sum(row.hours for row in rows if row.hours is not None)
+    unknown = sum(row.left for row in rows if row.hours is None)
     return spent, left, unknown
 
 
@@ -213,7 +230,7 @@ def main() -> None:
     print("| " + " | ".join(header) + " |")
     print("|" + "---|" * len(header))
     for row in rows:
-        print("| " + " | ".join(row) + " |")
+        print("| " + " | ".join(row.cells_text()) + " |")
     spent, left, unknown = _hours(rows)
     unknown_note = f", and {unknown} cells with no rate yet" if unknown else ""
     print(
