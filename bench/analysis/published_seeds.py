@@ -7,6 +7,12 @@ T is the mean of its last 5 logged ``Eval/Return`` values with ``Timesteps`` ≤
 fewer lie below T, marked ``(n=…)``); "big" = its value at 500K is ≥ 200. Last, it checks the
 values the studies compare with (``maopg.experiment.studies.published.PUBLISHED_RUNS``, 3
 decimals) against the logs.
+
+Then the logs' row spacing: how many ``Timesteps`` lie between consecutive rows in the first 10
+rows (ε near 1, before anything is learned) and in the rows at the big box (return ≥ 200), with
+those rows' mean return. Rows come at a fixed cadence of episodes, so where the first rows of
+two methods are alike and their big-box rows are not, the episodes trained on between two rows
+took that many more steps: what a converged curve's level alone does not say.
 """
 
 from __future__ import annotations
@@ -44,6 +50,42 @@ def value_at(rows: list[tuple[float, float]], steps: int) -> tuple[float, int]:
     return sum(last) / len(last), len(last)
 
 
+BIG = 200.0
+"""A logged return at or above this delivered the big box."""
+FIRST_ROWS = 10
+
+
+def median_gap(rows: list[tuple[float, float]], keep: list[bool]) -> float | None:
+    """The median ``Timesteps`` between each kept row and the row before it."""
+    starts = [0.0, *(t for t, _ in rows[:-1])]
+    gaps = [t - prev for (t, _), prev, k in zip(rows, starts, keep, strict=True) if k]
+    return statistics.median(gaps) if gaps else None
+
+
+def spacing(git_dir: str) -> None:
+    """Per size and method: each seed's median row gap in its first rows and at the big box."""
+    print("\n### Row spacing (Timesteps between consecutive rows)")
+    print(
+        "| env | method | first 10 rows: median gap, per seed | big-box rows: median gap, per seed"
+        " | big-box rows: mean return, per seed |"
+    )
+    print("|---|---|---|---|---|")
+    for env in ENVS:
+        for method in METHODS[:3]:
+            first, big, level = [], [], []
+            for seed in range(5):
+                rows = load(git_dir, f"icml25_result/log/{env}/{method}/{seed}.csv")
+                first.append(f"{median_gap(rows, [i < FIRST_ROWS for i in range(len(rows))]):.0f}")
+                at_big = [ret >= BIG for _, ret in rows]
+                gap = median_gap(rows, at_big)
+                big.append("—" if gap is None else f"{gap:.0f}")
+                kept = [ret for _, ret in rows if ret >= BIG]
+                level.append(f"{statistics.mean(kept):.1f}" if kept else "—")
+            print(
+                f"| {env} | {method} | {', '.join(first)} | {', '.join(big)} | {', '.join(level)} |"
+            )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("git_dir", help="a mirror of LGAI-Research/acac")
@@ -72,6 +114,7 @@ def main() -> None:
                 f"{statistics.mean(v):.1f} ± {statistics.stdev(v):.1f}" for v in per_step.values()
             )
             print(f"| {method} | mean ± SD | {summary} | |")
+    spacing(args.git_dir)
     print(
         "\nPUBLISHED_RUNS (maopg.experiment.studies.published) against these logs: "
         + ("; ".join(differ) if differ else "every value matches to 3 decimals")
