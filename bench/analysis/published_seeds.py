@@ -10,9 +10,10 @@ decimals) against the logs.
 
 Then the logs' row spacing: how many ``Timesteps`` lie between consecutive rows in the first 10
 rows (ε near 1, before anything is learned) and in the rows at the big box (return ≥ 200), with
-those rows' mean return. Rows come at a fixed cadence of episodes, so where the first rows of
-two methods are alike and their big-box rows are not, the episodes trained on between two rows
-took that many more steps: what a converged curve's level alone does not say.
+those rows' mean return, and each seed's lowest row. Rows come at a fixed cadence of episodes,
+so where the first rows of two methods are alike and their big-box rows are not, the episodes
+trained on between two rows took that many more steps: what a converged curve's level alone
+does not say.
 """
 
 from __future__ import annotations
@@ -63,27 +64,33 @@ def median_gap(rows: list[tuple[float, float]], keep: list[bool]) -> float | Non
 
 
 def spacing(git_dir: str) -> None:
-    """Per size and method: each seed's median row gap in its first rows and at the big box."""
-    print("\n### Row spacing (Timesteps between consecutive rows)")
-    print(
-        "| env | method | first 10 rows: median gap, per seed | big-box rows: median gap, per seed"
-        " | big-box rows: mean return, per seed |"
-    )
-    print("|---|---|---|---|---|")
+    """Per size and method: each seed's median row gap in its first rows and at the big box,
+    the mean return of its big-box rows and its lowest row."""
+    print("\n### Row spacing (Timesteps between consecutive rows) and the lowest row")
+    header = [
+        "env",
+        "method",
+        "first 10 rows: median gap, per seed",
+        "big-box rows: median gap, per seed",
+        "big-box rows: mean return, per seed",
+        "lowest row, per seed",
+    ]
+    print("| " + " | ".join(header) + " |")
+    print("|" + "---|" * len(header))
     for env in ENVS:
         for method in METHODS[:3]:
-            first, big, level = [], [], []
+            first, big, level, lowest = [], [], [], []
             for seed in range(5):
                 rows = load(git_dir, f"icml25_result/log/{env}/{method}/{seed}.csv")
-                first.append(f"{median_gap(rows, [i < FIRST_ROWS for i in range(len(rows))]):.0f}")
-                at_big = [ret >= BIG for _, ret in rows]
-                gap = median_gap(rows, at_big)
+                gap = median_gap(rows, [i < FIRST_ROWS for i in range(len(rows))])
+                first.append(f"{gap:.0f}")
+                gap = median_gap(rows, [ret >= BIG for _, ret in rows])
                 big.append("—" if gap is None else f"{gap:.0f}")
                 kept = [ret for _, ret in rows if ret >= BIG]
                 level.append(f"{statistics.mean(kept):.1f}" if kept else "—")
-            print(
-                f"| {env} | {method} | {', '.join(first)} | {', '.join(big)} | {', '.join(level)} |"
-            )
+                lowest.append(f"{min(ret for _, ret in rows):.1f}")
+            cells = [env, method, *(", ".join(c) for c in (first, big, level, lowest))]
+            print("| " + " | ".join(cells) + " |")
 
 
 def main() -> None:

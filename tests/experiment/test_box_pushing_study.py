@@ -212,7 +212,8 @@ def test_each_seed_is_classed_by_what_its_final_value_says_it_delivers():
     assert (final_value(FIRST), final_value(SECOND)) == (40.0, 120.0)
     row = outcome_table([FIRST, SECOND]).splitlines()[2]
     assert row == (
-        "| box_pushing_grid | async | 2 | 0 | 1 | 1 | 0 | seed0 40.0 (0%), seed1 120.0 (40%) |"
+        "| box_pushing_grid | async | 2 | 0 | 1 | 1 | 0 | seed0 40.0 (0%), seed1 120.0 (40%) "
+        "| 0.0 (seed1) |"
     )
 
 

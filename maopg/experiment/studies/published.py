@@ -330,10 +330,26 @@ def first_table(runs: Iterable[RunData], published: str) -> str:
     return markdown_table(header, rows)
 
 
+def lowest_evaluation(group: Sequence[RunData]) -> str:
+    """The lowest evaluation any seed of ``group`` logged over its whole run, with the seed: a
+    final value says where a seed ended, not what it went through on the way (``—``: none)."""
+    lows = [
+        (float(np.nanmin(values)), r.seed)
+        for r in group
+        if EVAL_RETURN in r.metrics
+        and (values := r.column(EVAL_RETURN)).size
+        and not np.isnan(values).all()
+    ]
+    if not lows:
+        return "—"
+    value, seed = min(lows)
+    return f"{value:.1f} (seed{seed})"
+
+
 def outcome_table(runs: Iterable[RunData]) -> str:
     """Per task × method: how many seeds' final values (:func:`final_value`) say each outcome,
-    and every seed's final value with its big-box rate (``eval_success`` over the same
-    evaluations)."""
+    every seed's final value with its big-box rate (``eval_success`` over the same
+    evaluations), and the lowest evaluation of any seed (:func:`lowest_evaluation`)."""
     rows = []
     for (task, label), group in selected_groups(runs, None):
         values = [final_value(r) for r in group]
@@ -347,8 +363,15 @@ def outcome_table(runs: Iterable[RunData]) -> str:
         unevaluated = said.count("not evaluated")
         counts = [str(said.count(o)) for o in OUTCOMES]
         note = f" ({unevaluated} not evaluated)" if unevaluated else ""
-        rows.append([task, label, f"{len(group)}{note}", *counts, seeds])
-    header = ["task", "method", "seeds", *OUTCOMES, "each seed: final value (big-box rate)"]
+        rows.append([task, label, f"{len(group)}{note}", *counts, seeds, lowest_evaluation(group)])
+    header = [
+        "task",
+        "method",
+        "seeds",
+        *OUTCOMES,
+        "each seed: final value (big-box rate)",
+        "lowest evaluation",
+    ]
     return markdown_table(header, rows)
 
 
@@ -491,7 +514,10 @@ def published_sections(runs: Sequence[RunData], published: str) -> list[tuple[st
         "in most episodes); big box at times: above "
         f"{MOST_WITHOUT_BIG_BOX:g}; small boxes only: ≥ {SMALL_BOXES:g} (a quick small box in "
         "nearly every episode; a random team scores 3-5); nothing: below. The big-box rate is "
-        f"the share of the same {LAST} evaluations' episodes that delivered the big box.\n\n"
+        f"the share of the same {LAST} evaluations' episodes that delivered the big box. The "
+        "lowest evaluation is the lowest any seed logged over its whole run: a team that "
+        "pushes into a wall or the big box alone every tick pays −10 a push, down to about "
+        "−2,000 an episode, where one that does nothing scores −10.\n\n"
     )
     sections = [
         (
