@@ -213,7 +213,7 @@ def test_each_seed_is_classed_by_what_its_final_value_says_it_delivers():
     row = outcome_table([FIRST, SECOND]).splitlines()[2]
     assert row == (
         "| box_pushing_grid | async | 2 | 0 | 1 | 1 | 0 | seed0 40.0 (0%), seed1 120.0 (40%) "
-        "| 0.0 (seed1) |"
+        "| seed0 10.0, seed1 0.0 |"
     )
 
 

@@ -330,26 +330,21 @@ def first_table(runs: Iterable[RunData], published: str) -> str:
     return markdown_table(header, rows)
 
 
-def lowest_evaluation(group: Sequence[RunData]) -> str:
-    """The lowest evaluation any seed of ``group`` logged over its whole run, with the seed: a
-    final value says where a seed ended, not what it went through on the way (``—``: none)."""
-    lows = [
-        (float(np.nanmin(values)), r.seed)
-        for r in group
-        if EVAL_RETURN in r.metrics
-        and (values := r.column(EVAL_RETURN)).size
-        and not np.isnan(values).all()
-    ]
-    if not lows:
-        return "—"
-    value, seed = min(lows)
-    return f"{value:.1f} (seed{seed})"
+def lowest_evaluations(group: Sequence[RunData]) -> str:
+    """Each seed's lowest evaluation over its whole run: a final value says where a seed
+    ended, not what it went through on the way (``—``: a seed with no evaluation)."""
+    cells = []
+    for r in group:
+        values = r.column(EVAL_RETURN) if EVAL_RETURN in r.metrics else np.array([])
+        seen = values[~np.isnan(values)]
+        cells.append(f"seed{r.seed} " + (f"{seen.min():.1f}" if seen.size else "—"))
+    return ", ".join(cells)
 
 
 def outcome_table(runs: Iterable[RunData]) -> str:
     """Per task × method: how many seeds' final values (:func:`final_value`) say each outcome,
     every seed's final value with its big-box rate (``eval_success`` over the same
-    evaluations), and the lowest evaluation of any seed (:func:`lowest_evaluation`)."""
+    evaluations), and every seed's lowest evaluation (:func:`lowest_evaluations`)."""
     rows = []
     for (task, label), group in selected_groups(runs, None):
         values = [final_value(r) for r in group]
@@ -363,14 +358,14 @@ def outcome_table(runs: Iterable[RunData]) -> str:
         unevaluated = said.count("not evaluated")
         counts = [str(said.count(o)) for o in OUTCOMES]
         note = f" ({unevaluated} not evaluated)" if unevaluated else ""
-        rows.append([task, label, f"{len(group)}{note}", *counts, seeds, lowest_evaluation(group)])
+        rows.append([task, label, f"{len(group)}{note}", *counts, seeds, lowest_evaluations(group)])
     header = [
         "task",
         "method",
         "seeds",
         *OUTCOMES,
         "each seed: final value (big-box rate)",
-        "lowest evaluation",
+        "each seed: lowest evaluation",
     ]
     return markdown_table(header, rows)
 
@@ -515,7 +510,7 @@ def published_sections(runs: Sequence[RunData], published: str) -> list[tuple[st
         f"{MOST_WITHOUT_BIG_BOX:g}; small boxes only: ≥ {SMALL_BOXES:g} (a quick small box in "
         "nearly every episode; a random team scores 3-5); nothing: below. The big-box rate is "
         f"the share of the same {LAST} evaluations' episodes that delivered the big box. The "
-        "lowest evaluation is the lowest any seed logged over its whole run: a team that "
+        "lowest evaluation is the lowest a seed logged over its whole run: a team that "
         "pushes into a wall or the big box alone every tick pays −10 a push, down to about "
         "−2,000 an episode, where one that does nothing scores −10.\n\n"
     )
