@@ -37,6 +37,7 @@ BOX_PUSHING = (
     "box-pushing-mujoco",
     "box-pushing-mujoco-rgb",
     "mac-iaicc-history",
+    "acac-seeds",
 )
 PAUSED = 20
 """An iteration this many times the run's median iteration or longer was a paused run."""
