@@ -8,18 +8,19 @@ fewer lie below T, marked ``(n=…)``); "big" = its value at 500K is ≥ 200. La
 values the studies compare with (``maopg.experiment.studies.published.PUBLISHED_RUNS``, 3
 decimals) against the logs.
 
-Then the logs' row spacing: how many ``Timesteps`` lie between consecutive rows in the first 10
-rows (ε near 1, before anything is learned) and in the rows at the big box (return ≥ 200), with
-those rows' mean return, and each seed's lowest row. Rows come at a fixed cadence of episodes,
-so where the first rows of two methods are alike and their big-box rows are not, the episodes
-trained on between two rows took that many more steps: what a converged curve's level alone
-does not say.
+Then the logs' row spacing: how many ``Timesteps`` each row adds to the one before (the first:
+to 0) in the first 10 rows (ε near 1, before anything is learned) and in the rows at the big
+box (return ≥ 200), with those rows' mean return, and each seed's lowest row. Rows come at a
+fixed cadence of episodes, so where the first rows of two methods are alike and their big-box
+rows are not, the episodes trained on between two rows took that many more steps: what a
+converged curve's level alone does not say.
 """
 
 from __future__ import annotations
 
 import argparse
 import csv
+import functools
 import io
 import statistics
 import subprocess
@@ -30,8 +31,11 @@ COMMIT = "26b94d99b459ebc61ce9c7fe0b09408dd3fe876b"
 STEPS = (50_000, 100_000, 200_000, 300_000, 500_000)
 ENVS = ("bp6", "bp8", "bp10")
 METHODS = ("acac", "mac_iaicc", "mac_niacc", "mappo")
+ACTOR_CRITICS = METHODS[:3]
+"""The macro-action actor-critics: the logs whose rows come at one cadence of episodes."""
 
 
+@functools.cache
 def load(git_dir: str, path: str) -> list[tuple[float, float]]:
     """``(Timesteps, Eval/Return)`` rows of one logged run."""
     text = subprocess.run(
@@ -57,7 +61,8 @@ FIRST_ROWS = 10
 
 
 def median_gap(rows: list[tuple[float, float]], keep: list[bool]) -> float | None:
-    """The median ``Timesteps`` between each kept row and the row before it."""
+    """The median of the ``Timesteps`` each kept row adds to the row before it (the first row:
+    to 0)."""
     starts = [0.0, *(t for t, _ in rows[:-1])]
     gaps = [t - prev for (t, _), prev, k in zip(rows, starts, keep, strict=True) if k]
     return statistics.median(gaps) if gaps else None
@@ -78,7 +83,7 @@ def spacing(git_dir: str) -> None:
     print("| " + " | ".join(header) + " |")
     print("|" + "---|" * len(header))
     for env in ENVS:
-        for method in METHODS[:3]:
+        for method in ACTOR_CRITICS:
             first, big, level, lowest = [], [], [], []
             for seed in range(5):
                 rows = load(git_dir, f"icml25_result/log/{env}/{method}/{seed}.csv")
@@ -88,7 +93,7 @@ def spacing(git_dir: str) -> None:
                 big.append("—" if gap is None else f"{gap:.0f}")
                 kept = [ret for _, ret in rows if ret >= BIG]
                 level.append(f"{statistics.mean(kept):.1f}" if kept else "—")
-                lowest.append(f"{min(ret for _, ret in rows):.1f}")
+                lowest.append(f"{min(ret for _, ret in rows):.1f}" if rows else "—")
             cells = [env, method, *(", ".join(c) for c in (first, big, level, lowest))]
             print("| " + " | ".join(cells) + " |")
 
@@ -115,7 +120,7 @@ def main() -> None:
                     if abs(stored - value) > 0.0005 + 1e-9:
                         differ.append(f"{env} {method} seed {seed} at {s}: {stored} ≠ {value}")
                     cells.append(f"{value:.1f}" + ("" if count == 5 else f" (n={count})"))
-                big = "Y" if per_step[STEPS[-1]][-1] >= 200 else "N"
+                big = "Y" if per_step[STEPS[-1]][-1] >= BIG else "N"
                 print(f"| {method} | {seed} | {' | '.join(cells)} | {big} |")
             summary = " | ".join(
                 f"{statistics.mean(v):.1f} ± {statistics.stdev(v):.1f}" for v in per_step.values()

@@ -34,8 +34,9 @@ from maopg.experiment.run.directory import CONFIG, METRICS, TIMING_COLUMNS
 from maopg.experiment.training.trainer import train
 
 
-def _rows(path: Path) -> list[dict[str, str]]:
-    with path.open() as handle:
+def rows(run_dir: Path) -> list[dict[str, str]]:
+    """The run's ``metrics.csv`` rows without the machine's timings."""
+    with (run_dir / METRICS).open() as handle:
         return [
             {k: v for k, v in row.items() if k not in TIMING_COLUMNS}
             for row in csv.DictReader(handle)
@@ -62,8 +63,15 @@ def train_again(run_dir: Path, samples: int, out: Path) -> Path:
 
 def compare(before: Path, after: Path) -> tuple[str, bool]:
     """A line on whether ``after``'s curve repeats ``before``'s, and whether it differs."""
-    old, new = _rows(before / METRICS), _rows(after / METRICS)
-    shared = old[0].keys() & new[0].keys() if old and new else set()
+    return compare_rows(rows(before), rows(after))
+
+
+def compare_rows(old: list[dict[str, str]], new: list[dict[str, str]]) -> tuple[str, bool]:
+    """A line on whether the ``new`` rows repeat the ``old`` ones (every column both log but
+    the machine's timings), and whether they differ."""
+    if not old or not new:
+        return f"DIFFERS: {len(old)} rows before, {len(new)} after", True
+    shared = old[0].keys() & new[0].keys()
     for i, (a, b) in enumerate(zip(old, new, strict=False)):
         columns = sorted(k for k in shared if a[k] != b[k])
         if columns:

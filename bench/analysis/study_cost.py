@@ -71,9 +71,11 @@ class Cost:
 
     @property
     def left(self) -> int:
+        """The cells not finished."""
         return self.cells - len(self.minutes)
 
     def cells_text(self) -> list[str]:
+        """The row as the table prints it."""
         mine = self.minutes
         spent = f"{statistics.fmean(mine):.0f} ({min(mine):.0f}–{max(mine):.0f})" if mine else "—"
         hours = "?" if self.hours is None else f"{self.mark}{self.hours:.1f}"

@@ -23,6 +23,7 @@ from maopg.experiment.studies.published import (
     final_value,
     first_at_threshold,
     first_table,
+    lowest_evaluations,
     outcome,
     outcome_table,
     over_seeds,
@@ -215,6 +216,9 @@ def test_each_seed_is_classed_by_what_its_final_value_says_it_delivers():
         "| box_pushing_grid | async | 2 | 0 | 1 | 1 | 0 | seed0 40.0 (0%), seed1 120.0 (40%) "
         "| seed0 10.0, seed1 0.0 |"
     )
+    # A seed that has logged no evaluation yet has no lowest one.
+    unevaluated = _run(2, [NAN])
+    assert lowest_evaluations([FIRST, unevaluated]) == "seed0 10.0, seed2 —"
 
 
 BOX_PUSHING_STUDIES = [n for n in study_names() if n.startswith("box-pushing")]

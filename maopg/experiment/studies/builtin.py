@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 from functools import partial
+from typing import Any
 
 from maopg.experiment.studies.registry import (
     PAPER,
@@ -283,22 +284,28 @@ def _box_pushing_grid(size: int) -> Study:
     )
 
 
+def _grid6_variant(name: str, what: str, methods: tuple[str, ...], **changes: Any) -> Study:
+    """A study of ``box-pushing-6``'s task with ``changes`` (its seeds, a method's settings),
+    set beside the same published bp6 curves, for what the 6x6 runs left open."""
+    grid = _box_pushing_grid(6)
+    (task,) = grid.tasks
+    return Study(
+        name, what, (replace(task, **changes),), methods, overrides=grid.overrides, published="bp6"
+    )
+
+
 def _mac_iaicc_history() -> Study:
     """Mac-IAICC on the 6x6 grid at MacroMARL's Box Pushing settings (:func:`macromarl`) but
     with the critics its paper describes, of the joint observation history, where the scripts
     give theirs the global state: the one detail in which maopg's first Mac-IAICC runs differed
     from the published ones, and what its study sets beside the same published bp6 curves
     (docs/results/box-pushing.md)."""
-    grid = _box_pushing_grid(6)
-    (task,) = grid.tasks
-    return Study(
+    return _grid6_variant(
         "mac-iaicc-history",
         "mac-iaicc with history critics on the 6x6 Box Pushing grid, beside the published bp6 "
         "curves and the box-pushing-6 study's state critics",
-        (replace(task, method_overrides=macromarl(6, critic="history")),),
         ("mac-iaicc",),
-        overrides=grid.overrides,
-        published="bp6",
+        method_overrides=macromarl(6, critic="history"),
     )
 
 
@@ -308,16 +315,12 @@ def _acac_seeds() -> Study:
     ``box-pushing-6``'s five ACAC seeds are caught by the small boxes where none of the
     authors' five are; five more say whether that is ACAC's rate here or the draw of five
     (docs/results/box-pushing.md). About 35 minutes a seed on this machine (``study_cost``)."""
-    grid = _box_pushing_grid(6)
-    (task,) = grid.tasks
-    return Study(
+    return _grid6_variant(
         "acac-seeds",
         "acac on the 6x6 Box Pushing grid with seeds 5-9, a second sample beside box-pushing-6's "
         "and the published bp6 curves",
-        (replace(task, seeds=(5, 6, 7, 8, 9)),),
         ("acac",),
-        overrides=grid.overrides,
-        published="bp6",
+        seeds=(5, 6, 7, 8, 9),
     )
 
 

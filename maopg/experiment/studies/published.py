@@ -215,7 +215,7 @@ def value_at(
     or logged no evaluation by then."""
     if metric not in run.metrics or (counter != SAMPLES and counter not in run.metrics):
         return math.nan
-    steps = run.samples if counter == SAMPLES else run.column(counter)
+    steps = run.counted(counter)
     if not steps.size or steps[-1] < samples:
         return math.nan
     values = run.column(metric)

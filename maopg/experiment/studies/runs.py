@@ -64,6 +64,11 @@ class RunData:
             raise KeyError(f"{self.path / METRICS} has no column {metric!r}")
         return self.metrics[metric]
 
+    def counted(self, counter: str) -> np.ndarray:
+        """Each iteration's place on ``counter``: maopg's ``samples``, or a counter the run
+        logs (ACAC's and MacroMARL's ``published_steps``; a ``KeyError`` if it logs none)."""
+        return self.samples if counter == "samples" else self.column(counter)
+
     def curve(self, metric: str = RETURN, window: int = 1) -> tuple[np.ndarray, np.ndarray]:
         """``(samples, values)`` of ``metric`` over iterations that reported it, smoothed by a
         trailing mean over the last ``window`` such iterations."""
