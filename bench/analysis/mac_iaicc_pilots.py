@@ -70,6 +70,10 @@ PILOTS = {
         "ε over 30,000 episodes (ACAC's runner), not MacroMARL's 4,000",
         {"maciaicc.explore_decay": 30_000},
     ),
+    "rounds-16": Pilot(
+        "rounds of 16 episodes (ACAC's runner), not MacroMARL's 32",
+        {"maciaicc.episodes_per_update": 16},
+    ),
 }
 
 
