@@ -18,13 +18,12 @@ metrics, ``done.json``; weights stay local), so ``run`` resumes where a session 
 
 from __future__ import annotations
 
-import argparse
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from pilot_runs import finished, train_command, train_runs
+from pilot_runs import commands_text, finished, pilot_main, train_command, train_runs
 
 from maopg.experiment.studies import get_study
 from maopg.experiment.studies.published import (
@@ -116,24 +115,12 @@ def table() -> str:
         paths = [ROOT / name / f"seed{seed}" for seed in SEEDS]
         cells = [seed_cell(load_run(p)) if finished(p) else "—" for p in paths]
         lines.append(f"| `{name}` | {pilot.about} | {' | '.join(cells)} |")
-    lines += ["", "Commands (seed 0; the others differ in `--seed` and `--run-dir`):"]
-    lines += [f"- `{name}`: `{' '.join(p.command(name, 0))}`" for name, p in PILOTS.items()]
+    lines += commands_text({name: p.command(name, 0) for name, p in PILOTS.items()})
     return "\n".join(lines) + "\n"
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    sub = parser.add_subparsers(dest="command", required=True)
-    sub.add_parser("run").add_argument("pilots", nargs="*", help=", ".join(PILOTS))
-    sub.add_parser("table")
-    args = parser.parse_args()
-    if args.command == "run":
-        unknown = [name for name in args.pilots if name not in PILOTS]
-        if unknown:
-            parser.error(f"unknown pilot {unknown[0]!r}; pilots: {', '.join(PILOTS)}")
-        run(args.pilots)
-    else:
-        print(table(), end="")
+    pilot_main(__doc__, PILOTS, run, table)
 
 
 if __name__ == "__main__":

@@ -5,9 +5,10 @@ pilot table is read from the logged runs alone."""
 
 from __future__ import annotations
 
+import argparse
 import subprocess
 import sys
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
@@ -60,3 +61,29 @@ def train_runs(runs: Iterable[tuple[list[str], Path]], jobs: int = 1) -> None:
     with ThreadPoolExecutor(jobs) as pool:
         for line in pool.map(lambda run: train_run(*run), runs):
             print(line, flush=True)
+
+
+def commands_text(commands: Mapping[str, list[str]]) -> list[str]:
+    """A pilot table's closing lines: each pilot's seed-0 ``train`` command."""
+    lines = ["", "Commands (seed 0; the others differ in `--seed` and `--run-dir`):"]
+    return lines + [f"- `{name}`: `{' '.join(command)}`" for name, command in commands.items()]
+
+
+def pilot_main(
+    doc: str, names: Iterable[str], run: Callable[[list[str]], None], table: Callable[[], str]
+) -> None:
+    """The command line of a pilot script: ``run [PILOT ...]`` trains the named pilots (all by
+    default), ``table`` prints the pilot table."""
+    names = list(names)
+    parser = argparse.ArgumentParser(description=doc.split("\n\n")[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+    sub.add_parser("run").add_argument("pilots", nargs="*", help=", ".join(names))
+    sub.add_parser("table")
+    args = parser.parse_args()
+    if args.command == "run":
+        unknown = [name for name in args.pilots if name not in names]
+        if unknown:
+            parser.error(f"unknown pilot {unknown[0]!r}; pilots: {', '.join(names)}")
+        run(args.pilots)
+    else:
+        print(table(), end="")
