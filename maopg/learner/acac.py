@@ -30,9 +30,11 @@ environments the run's ``num_envs`` (ACAC's: 32); ``batch_ticks`` does not apply
 
 Choices where the paper is silent, or where the authors' code differs from its description:
 values are denormalised with the statistics of the network that computed them (the code reads
-the target critic's outputs with the online critic's, up to four rounds newer); the return at
-an episode's last decision is ``A + V`` as everywhere (the code drops the ``V`` there); every
-decision of an agent is trained on, including one whose option the episode's end cut short.
+the target critic's outputs with the online critic's, up to four rounds newer). Two more of the
+code's departures are settings, the description's form by default: the return at an episode's
+last decision is ``A + V`` as everywhere (``acac.last_target=advantage``: ``A`` alone, as the
+code computes it), and every decision of an agent is trained on, including one whose option the
+episode's end cut short (``acac.cut_decisions=drop``: left out, as the code does).
 """
 
 from __future__ import annotations
@@ -102,7 +104,7 @@ class ACACLearner(RoundsLearner):
         last[batch.length - 1, np.arange(len(batch.length))] = True
         terminal = last & batch.terminated[None, :]
         next_values = np.concatenate([values[1:], np.zeros_like(values[:1])])
-        return compute_gae(
+        advantages, returns = compute_gae(
             values=np.where(steps, values, 0.0),
             next_values=np.where(steps, next_values, 0.0),
             reward_sum=np.where(steps, batch.reward_sum, 0.0),
@@ -114,6 +116,9 @@ class ACACLearner(RoundsLearner):
             lam=self.config.gae_lambda,
             form=DiscountForm.EVENT,
         )
+        if self.config.last_target == "advantage":
+            returns = np.where(last, advantages, returns)
+        return advantages, returns
 
     def update(self, batch: Episodes, epsilon: float) -> dict[str, float]:
         """``train_repeat`` full-batch steps of the critic, then of each actor."""
@@ -127,7 +132,10 @@ class ACACLearner(RoundsLearner):
         advantage = torch.as_tensor(advantages, dtype=torch.float32, device=self.device)
         with torch.no_grad():
             old, _ = self.agent_log_probs(batch, epsilon)
-        deciding = batch.choosing.to(self.device) & steps.unsqueeze(-1)
+        deciding = batch.choosing & batch.steps.unsqueeze(-1)
+        if cfg.cut_decisions == "drop":
+            deciding &= ~cut_short(batch)
+        deciding = deciding.to(self.device)
         sums = dict.fromkeys(("policy_loss", "value_loss", "entropy", "approx_kl"), 0.0)
         for _ in range(cfg.train_repeat):
             value_loss = (self._values(self.critic, batch) - targets)[steps].square().mean()
@@ -152,6 +160,19 @@ class ACACLearner(RoundsLearner):
             sums["approx_kl"] += kl.item()
         self.require_finite_networks()
         return {key: total / cfg.train_repeat for key, total in sums.items()}
+
+
+def cut_short(batch: Episodes) -> Tensor:
+    """``bool [T, B, N]``: each agent's last decision of each episode whose option had not ended
+    when the episode did (the final point's ``choosing`` marks the options that ended there)."""
+    steps, episodes, agents = batch.choosing.shape
+    index = torch.arange(episodes)
+    deciding = batch.choosing & batch.steps.unsqueeze(-1)
+    last = (deciding.long() * torch.arange(steps).view(-1, 1, 1)).argmax(0)
+    ended = batch.choosing[torch.from_numpy(batch.length), index]
+    cut = torch.zeros_like(deciding)
+    cut[last, index.unsqueeze(1), torch.arange(agents)] = deciding.any(0) & ~ended
+    return cut
 
 
 def agent_centric_policy(

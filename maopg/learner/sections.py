@@ -269,6 +269,14 @@ class ACACConfig(Settings):
     popart_beta: float = setting(0.99999, gt=0.0, lt=1.0)
     """Decay of the running return statistics of the critic's PopArt value head (closer to 1:
     slower)."""
+    cut_decisions: str = setting("train", choices=("train", "drop"))
+    """An agent's last decision of an episode whose option the episode's end cut short (its
+    partner delivered a box, or time ran out): ``train`` its actor on it as on every decision
+    (the paper's description); ``drop`` it from the actor's loss, as ACAC's code does."""
+    last_target: str = setting("return", choices=("return", "advantage"))
+    """The critic's target at an episode's last decision: ``return``, ``A + V`` as at every
+    other; ``advantage``, ``A`` alone, as ACAC's code computes it (its value there is left at
+    0), which holds the critic there near half the last step's reward."""
 
     def validate(self) -> None:
         super().validate()

@@ -11,6 +11,7 @@ import torch
 
 from maopg.env.vector import EnvConfig, SeededVectorEnv
 from maopg.learner import ACACConfig, ACACLearner, compute_gae
+from maopg.learner.acac import cut_short
 from maopg.policy import ObsBatch, stack_conditions
 from maopg.policy.agent_centric import (
     AgentCentricCritic,
@@ -242,14 +243,15 @@ def test_from_cameras_each_agent_reads_its_own_image(setup_for):
         envs.close()
 
 
-def _interleaved(learner: ACACLearner, envs: SeededVectorEnv):
+def _interleaved(learner: ACACLearner, envs: SeededVectorEnv, ended: tuple[int, int] = (1, 1)):
     """One collected episode cut to four steps whose decisions interleave as asynchronous
     options make them: both agents choose at the start (tick 0), agent 1 alone at tick 2, agent
     0 alone at tick 3, agent 1 alone at tick 5, and the episode ends at tick 6 in a terminal
-    state; the continuing agent keeps the option it runs."""
+    state, with the options ``ended`` marks ending there; the continuing agent keeps the option
+    it runs."""
     batch, _, _ = learner.collect(envs, 0.5)
     rows = slice(0, 5)
-    choosing = torch.tensor([[1, 1], [0, 1], [1, 0], [0, 1], [1, 1]], dtype=torch.bool)
+    choosing = torch.tensor([[1, 1], [0, 1], [1, 0], [0, 1], list(ended)], dtype=torch.bool)
     joint = batch.joint[rows, :1].clone()
     running = torch.full((5, 1, 2), -1, dtype=torch.long)
     for t in range(1, 5):
@@ -284,9 +286,7 @@ def test_interleaved_decisions_share_each_points_advantage_and_each_actor_reads_
     3, agent 1's at ticks 0, 2 and 5."""
     learner = _learner(setup_for, envs, episodes_per_update=1, train_repeat=1)
     batch = _interleaved(learner, envs)
-    values = torch.tensor([[1.0], [2.0], [3.0], [4.0], [5.0]])
-    monkeypatch.setattr(learner, "_values", lambda critic, batch: values)
-    monkeypatch.setattr(learner.target.value_head, "denormalize", lambda v: v)
+    losses = _hand_worked(learner, monkeypatch)
     g, lam = 0.98, 0.95
     d3 = 299.9 + 0.0 - 4.0
     d2 = -0.2 + g**2 * 4.0 - 3.0
@@ -300,11 +300,63 @@ def test_interleaved_decisions_share_each_points_advantage_and_each_actor_reads_
     assert advantages[:4, 0] == pytest.approx([a0, a1, a2, a3])
     assert returns[:4, 0] == pytest.approx([a0 + 1.0, a1 + 2.0, a2 + 3.0, a3 + 4.0])
 
+    learner.update(batch, 0.5)
+    assert losses[0] == pytest.approx(-(a0 + a2) / 2, rel=1e-5)
+    assert losses[1] == pytest.approx(-(a0 + a1 + a3) / 3, rel=1e-5)
+
+
+def _hand_worked(learner: ACACLearner, monkeypatch) -> dict[int, float]:
+    """The critic's values of the hand-worked episode (V = 1 … 5 along its points, in return
+    units); returns the dict the next update's actor losses land in, critic and actors left
+    unstepped."""
+    values = torch.tensor([[1.0], [2.0], [3.0], [4.0], [5.0]])
+    monkeypatch.setattr(learner, "_values", lambda critic, batch: values)
+    monkeypatch.setattr(learner.target.value_head, "denormalize", lambda v: v)
     losses: dict[int, float] = {}
     monkeypatch.setattr(learner, "step_critic", lambda loss: None)
     monkeypatch.setattr(
         learner, "step_actors", lambda got: losses.update({i: v.item() for i, v in got.items()})
     )
+    return losses
+
+
+@pytest.mark.parametrize("form", ["train", "drop"])
+def test_a_decision_the_episodes_end_cut_short_is_trained_on_or_dropped(
+    setup_for, envs, monkeypatch, form
+):
+    """The hand-worked episode with agent 1's option of tick 5 still running when the episode
+    ends at tick 6 (the final point's ``choosing`` false for it): that decision, and only that
+    one, is cut short. ``acac.cut_decisions=train`` (the paper's description) keeps it in agent
+    1's loss, ``drop`` (ACAC's code) leaves it out; agent 0's decisions both ended and count
+    either way. With both options ending at the final point nothing is cut."""
+    learner = _learner(setup_for, envs, episodes_per_update=1, train_repeat=1, cut_decisions=form)
+    assert not cut_short(_interleaved(learner, envs)).any()
+    batch = _interleaved(learner, envs, ended=(1, 0))
+    assert cut_short(batch)[:, 0].nonzero().tolist() == [[3, 1]]
+    losses = _hand_worked(learner, monkeypatch)
+    advantages, _ = learner.advantages(batch)
+    a0, a1, a2, a3 = advantages[:4, 0]
     learner.update(batch, 0.5)
     assert losses[0] == pytest.approx(-(a0 + a2) / 2, rel=1e-5)
-    assert losses[1] == pytest.approx(-(a0 + a1 + a3) / 3, rel=1e-5)
+    mine = [a0, a1, a3] if form == "train" else [a0, a1]
+    assert losses[1] == pytest.approx(-sum(mine) / len(mine), rel=1e-5)
+
+
+def test_the_last_steps_target_is_the_advantage_alone_in_the_codes_form(
+    setup_for, envs, monkeypatch
+):
+    """``acac.last_target=advantage`` (ACAC's code, whose value at an episode's last step is
+    left at 0): the critic's target there is ``A`` instead of ``A + V``, every other step's and
+    every advantage as in the description's form."""
+    targets = {}
+    for form in ("return", "advantage"):
+        learner = _learner(setup_for, envs, episodes_per_update=1, last_target=form)
+        batch = _interleaved(learner, envs)
+        _hand_worked(learner, monkeypatch)
+        targets[form] = learner.advantages(batch)
+    (adv, ret), (adv_code, ret_code) = targets["return"], targets["advantage"]
+    assert adv_code[:4, 0] == pytest.approx(adv[:4, 0])
+    assert ret_code[:3, 0] == pytest.approx(ret[:3, 0])
+    assert ret[3, 0] == pytest.approx(adv[3, 0] + 4.0) and ret_code[3, 0] == pytest.approx(
+        adv[3, 0]
+    )
