@@ -25,6 +25,8 @@ the baseline row, and the ``acac-seeds`` study (seeds 5-9) is a second sample of
 
 from __future__ import annotations
 
+from pathlib import Path
+
 from grid6_pilots import Pilot, PilotSet, at_text
 
 PILOTS = PilotSet(
@@ -44,6 +46,7 @@ PILOTS = PilotSet(
             {"acac.last_target": "advantage"},
         ),
     },
+    also=Path("results/acac-seeds/runs"),
 )
 
 if __name__ == "__main__":

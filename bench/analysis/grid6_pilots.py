@@ -20,14 +20,19 @@ from pilot_runs import commands_text, finished, pilot_main, train_command, train
 
 from maopg.experiment.studies import get_study
 from maopg.experiment.studies.published import (
+    BIG_BOX,
     EVAL_RETURN,
     PUBLISHED_COUNTER,
+    PUBLISHED_RUNS,
+    PUBLISHED_SAMPLES,
+    VALIDATED,
     VALIDATION_SAMPLES,
     final_value,
     outcome,
     value_at,
 )
-from maopg.experiment.studies.runs import RunData, load_run
+from maopg.experiment.studies.runs import RunData, discover_runs, load_run
+from maopg.experiment.studies.stats import fisher_exact
 
 STUDY = "box-pushing-6"
 PILOT_ROOT = Path("results/box-pushing-6/pilots")
@@ -48,6 +53,9 @@ class PilotSet:
     seeds: tuple[int, ...]
     heading: str
     pilots: dict[str, Pilot]
+    also: Path | None = None
+    """Another study's runs of the method at the study's settings, other seeds: counted with
+    the study's own in the table's last line."""
 
     def study_settings(self) -> dict[str, Any]:
         """The study's settings of a run of the method, with its budget (``total_samples``)."""
@@ -75,20 +83,33 @@ class PilotSet:
 
     def table(self) -> str:
         """The pilot table from the logged runs, the study's own seeds first."""
+        theirs = PUBLISHED_RUNS["bp6"][VALIDATED[self.method]]
+        big = f"big box at 500K, against the authors' {big_box_count(theirs)} of {len(theirs)}"
         seeds = " | ".join(f"seed {seed}" for seed in self.seeds)
         lines = [
             self.heading,
             "",
-            f"| pilot | setting | {seeds} |",
-            "|---|---|" + "---|" * len(self.seeds),
+            f"| pilot | setting | {seeds} | {big} |",
+            "|---|---|" + "---|" * (len(self.seeds) + 1),
         ]
         study = [load_run(STUDY_RUNS / self.method / f"seed{seed}") for seed in self.seeds]
+        done = [r for r in study if r.finished]
         cells = [seed_cell(r) if r.finished else "—" for r in study]
-        lines.append(f"| `{STUDY}` | the study's settings | {' | '.join(cells)} |")
+        count = count_cell(done, theirs)
+        lines.append(f"| `{STUDY}` | the study's settings | {' | '.join(cells)} | {count} |")
         for name, pilot in self.pilots.items():
             paths = [self.run_dir(name, seed) for seed in self.seeds]
+            runs = [load_run(p) for p in paths if finished(p)]
             cells = [seed_cell(load_run(p)) if finished(p) else "—" for p in paths]
-            lines.append(f"| `{name}` | {pilot.about} | {' | '.join(cells)} |")
+            count = count_cell(runs, theirs)
+            lines.append(f"| `{name}` | {pilot.about} | {' | '.join(cells)} | {count} |")
+        if self.also is not None:
+            more = discover_runs([self.also])
+            lines += [
+                "",
+                f"The study's settings with the {len(more)} seeds of `{self.also}` too: "
+                f"{count_cell([*done, *more], theirs)}.",
+            ]
         lines += commands_text({name: self.command(name, 0) for name in self.pilots})
         return "\n".join(lines) + "\n"
 
@@ -109,3 +130,20 @@ def seed_cell(run: RunData) -> str:
     )
     lowest = float(np.nanmin(run.column(EVAL_RETURN)))
     return f"{values}; lowest {lowest:.1f}; {outcome(final_value(run))}"
+
+
+def big_box_count(seeds: tuple[tuple[float, ...], ...]) -> int:
+    """How many published seeds deliver the big box at the validation's last T."""
+    last = PUBLISHED_SAMPLES.index(VALIDATION_SAMPLES[-1])
+    return sum(values[last] >= BIG_BOX for values in seeds)
+
+
+def count_cell(runs: list[RunData], theirs: tuple[tuple[float, ...], ...]) -> str:
+    """``k of n`` of the runs at the big box at the validation's last T on the published counter,
+    and Fisher's exact p against the published seeds' count; ``—`` for no run."""
+    if not runs:
+        return "—"
+    values = [value_at(r, VALIDATION_SAMPLES[-1], counter=PUBLISHED_COUNTER) for r in runs]
+    ours = sum(v >= BIG_BOX for v in values)
+    p = fisher_exact(ours, len(runs), big_box_count(theirs), len(theirs))
+    return f"{ours} of {len(runs)} (p = {p:.2f})"
