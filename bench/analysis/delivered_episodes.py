@@ -13,12 +13,10 @@ not log the counter.
 
 from __future__ import annotations
 
-import argparse
-from pathlib import Path
-
 import numpy as np
+from runs_at import runs_at
 
-from maopg.experiment.studies.runs import RunData, discover_runs
+from maopg.experiment.studies.runs import RunData
 
 
 def windows(run: RunData, counter: str, points: list[int]) -> list[str]:
@@ -37,21 +35,14 @@ def windows(run: RunData, counter: str, points: list[int]) -> list[str]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("dirs", nargs="+", type=Path)
-    parser.add_argument("--at", required=True, help="points T, comma-separated, ascending")
-    parser.add_argument("--counter", default="samples")
-    args = parser.parse_args()
-    points = [int(t) for t in args.at.split(",")]
-    if points != sorted(set(points)) or points[0] <= 0:
-        parser.error(f"--at must be positive and ascending, got {args.at}")
+    runs, points, counter = runs_at(__doc__)
     labels = [f"{t / 1000:g}K" for t in points]
     header = ["run", *(f"{a}–{b}" for a, b in zip(["0", *labels[:-1]], labels, strict=True))]
-    print(f"Counter: {args.counter}; each window: training episodes, how many succeeded\n")
+    print(f"Counter: {counter}; each window: training episodes, how many succeeded\n")
     print("| " + " | ".join(header) + " |")
     print("|" + "---|" * len(header))
-    for run in discover_runs(args.dirs, unfinished=True):
-        cells = [f"{run.task} {run.method} seed{run.seed}", *windows(run, args.counter, points)]
+    for run in runs:
+        cells = [f"{run.task} {run.method} seed{run.seed}", *windows(run, counter, points)]
         print("| " + " | ".join(cells) + " |")
 
 

@@ -12,28 +12,20 @@ counter.
 
 from __future__ import annotations
 
-import argparse
 import math
-from pathlib import Path
+
+from runs_at import runs_at
 
 from maopg.experiment.studies.published import value_at
-from maopg.experiment.studies.runs import discover_runs
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("dirs", nargs="+", type=Path)
-    parser.add_argument("--at", required=True, help="points T, comma-separated, ascending")
-    parser.add_argument("--counter", default="samples")
-    args = parser.parse_args()
-    points = [int(t) for t in args.at.split(",")]
-    if points != sorted(set(points)) or points[0] <= 0:
-        parser.error(f"--at must be positive and ascending, got {args.at}")
-    print(f"Counter: {args.counter}; each run's value at T (the mean of its last 5 evaluations)\n")
+    runs, points, counter = runs_at(__doc__)
+    print(f"Counter: {counter}; each run's value at T (the mean of its last 5 evaluations)\n")
     print("| run | " + " | ".join(f"{t / 1000:g}K" for t in points) + " |")
     print("|" + "---|" * (len(points) + 1))
-    for run in discover_runs(args.dirs, unfinished=True):
-        values = [value_at(run, t, counter=args.counter) for t in points]
+    for run in runs:
+        values = [value_at(run, t, counter=counter) for t in points]
         cells = ["—" if math.isnan(v) else f"{v:.1f}" for v in values]
         print(f"| {run.task} {run.method} seed{run.seed} | " + " | ".join(cells) + " |")
 
