@@ -14,7 +14,7 @@ not log the counter.
 from __future__ import annotations
 
 import numpy as np
-from runs_at import runs_at
+from runs_at import label, runs_at
 
 from maopg.experiment.studies.runs import RunData
 
@@ -42,7 +42,7 @@ def main() -> None:
     print("| " + " | ".join(header) + " |")
     print("|" + "---|" * len(header))
     for run in runs:
-        cells = [f"{run.task} {run.method} seed{run.seed}", *windows(run, counter, points)]
+        cells = [label(run), *windows(run, counter, points)]
         print("| " + " | ".join(cells) + " |")
 
 

@@ -21,3 +21,12 @@ def runs_at(doc: str) -> tuple[list[RunData], list[int], str]:
     if points != sorted(set(points)) or points[0] <= 0:
         parser.error(f"--at must be positive and ascending, got {args.at}")
     return discover_runs(args.dirs, unfinished=True), points, args.counter
+
+
+def label(run: RunData) -> str:
+    """A run's row label: its directory, relative to the working directory where it lies below
+    it (runs of one method and seed from two pilots differ only there)."""
+    try:
+        return str(run.path.resolve().relative_to(Path.cwd()))
+    except ValueError:
+        return str(run.path)

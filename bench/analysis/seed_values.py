@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 
-from runs_at import runs_at
+from runs_at import label, runs_at
 
 from maopg.experiment.studies.published import value_at
 
@@ -27,7 +27,7 @@ def main() -> None:
     for run in runs:
         values = [value_at(run, t, counter=counter) for t in points]
         cells = ["—" if math.isnan(v) else f"{v:.1f}" for v in values]
-        print(f"| {run.task} {run.method} seed{run.seed} | " + " | ".join(cells) + " |")
+        print(f"| {label(run)} | " + " | ".join(cells) + " |")
 
 
 if __name__ == "__main__":
