@@ -99,8 +99,9 @@ class PilotSet:
         lines.append(f"| `{STUDY}` | the study's settings | {' | '.join(cells)} | {count} |")
         for name, pilot in self.pilots.items():
             paths = [self.run_dir(name, seed) for seed in self.seeds]
-            runs = [load_run(p) for p in paths if finished(p)]
-            cells = [seed_cell(load_run(p)) if finished(p) else "—" for p in paths]
+            loaded = [load_run(p) if finished(p) else None for p in paths]
+            runs = [r for r in loaded if r is not None]
+            cells = [seed_cell(r) if r is not None else "—" for r in loaded]
             count = count_cell(runs, theirs)
             lines.append(f"| `{name}` | {pilot.about} | {' | '.join(cells)} | {count} |")
         if self.also is not None:

@@ -132,7 +132,7 @@ class ACACLearner(RoundsLearner):
         advantage = torch.as_tensor(advantages, dtype=torch.float32, device=self.device)
         with torch.no_grad():
             old, _ = self.agent_log_probs(batch, epsilon)
-        deciding = batch.choosing & batch.steps.unsqueeze(-1)
+        deciding = batch.deciding
         if cfg.cut_decisions == "drop":
             deciding &= ~cut_short(batch)
         deciding = deciding.to(self.device)
@@ -167,7 +167,7 @@ def cut_short(batch: Episodes) -> Tensor:
     when the episode did (the final point's ``choosing`` marks the options that ended there)."""
     steps, episodes, agents = batch.choosing.shape
     index = torch.arange(episodes)
-    deciding = batch.choosing & batch.steps.unsqueeze(-1)
+    deciding = batch.deciding
     last = (deciding.long() * torch.arange(steps).view(-1, 1, 1)).argmax(0)
     ended = batch.choosing[torch.from_numpy(batch.length), index]
     cut = torch.zeros_like(deciding)

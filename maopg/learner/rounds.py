@@ -69,6 +69,11 @@ class Episodes:
         return t < torch.from_numpy(self.length).unsqueeze(0)
 
     @property
+    def deciding(self) -> Tensor:
+        """``bool [T, B, N]``: the agents that chose at each step."""
+        return self.choosing & self.steps.unsqueeze(-1)
+
+    @property
     def starts(self) -> Tensor:
         starts = torch.zeros(self.choosing.shape[:2], dtype=torch.bool)
         starts[0] = True
