@@ -191,6 +191,54 @@ def test_a_round_trains_on_the_last_finished_episodes_and_counts_them(setup_for,
     assert learner.config.exploration(10**6) == pytest.approx(0.01)
 
 
+class _Recorded(SeededVectorEnv):
+    """The real vector environment, recording each finish as (round tick, environment, return,
+    ticks): the ground truth a round is checked against."""
+
+    def restart(self) -> None:
+        super().restart()
+        self.elapsed = np.zeros(self.num_envs, dtype=np.int64)
+        self.finishes: list[tuple[int, int, float, int]] = []
+
+    def step(self, joints: np.ndarray) -> list:
+        results = super().step(joints)
+        for e, result in enumerate(results):
+            self.elapsed[e] += result.outcome.duration
+            if result.final is not None:
+                info = result.final.info["episode"]
+                self.finishes.append((int(self.elapsed[e]), e, info["return"], info["ticks"]))
+        return results
+
+
+def test_a_round_keeps_every_finish_by_the_cutoff_tick_and_trains_on_the_last(setup_for):
+    """ACAC's published protocol (32 environments, 16 episodes), tick by tick: the round's
+    cutoff is the tick of the 16th earliest finish; every episode finished by then counts (more
+    than 16 where several finish at that tick), the batch is the last 16 of them by tick then
+    environment, the rest are dropped, and the published counter adds exactly the counted
+    episodes' ticks."""
+    envs = _Recorded(CONFIG, num_envs=32, seed=5)
+    envs.reset()
+    learner = _learner(setup_for, envs, episodes_per_update=16)
+    batch, finished, ticks = learner.collect(envs, 1.0)
+    cutoff = sorted(f[0] for f in envs.finishes)[15]
+    counted = sorted((f for f in envs.finishes if f[0] <= cutoff), key=lambda f: (f[0], f[1]))
+    assert len(counted) > 16  # a tie at the cutoff: every one of them counts
+    assert [(e["return"], e["ticks"]) for e in finished] == [(f[2], f[3]) for f in counted]
+    assert any(f[0] > cutoff for f in envs.finishes)  # finishes after the cutoff are dropped
+    assert envs.elapsed.min() >= cutoff and ticks == envs.elapsed.sum()
+    steps = batch.steps.numpy()
+    assert np.allclose(batch.reward_sum.sum(axis=0), [f[2] for f in counted[-16:]])
+    assert [int(batch.duration[steps[:, b], b].sum()) for b in range(16)] == [
+        f[3] for f in counted[-16:]
+    ]
+    learner.published_steps = 0
+    learner.iteration(envs, 0)  # a second round, recorded afresh
+    assert learner.published_steps == sum(
+        f[3] for f in envs.finishes if f[0] <= sorted(g[0] for g in envs.finishes)[15]
+    )
+    envs.close()
+
+
 def test_at_full_exploration_the_ratio_is_one_whatever_the_actors_say(setup_for, envs):
     """ε = 1: every choosing agent draws uniformly, old and new probabilities are the
     uniform's whatever the weights, so the surrogate's ratio is exactly 1."""
