@@ -10,8 +10,10 @@ import re
 
 import numpy as np
 import pytest
+from pettingzoo.test import parallel_api_test
 
 from maopg.env import DecisionPoint, OptionEnv, make_env
+from maopg.env.pettingzoo import parallel_env
 from maopg.env.rollout import RandomPolicy, reference_policy, run_episode
 from maopg.sim import robots
 from maopg.sim.robots import GroundAdapter, get_robot, register_robot, robot_names, robots_of_role
@@ -386,3 +388,18 @@ def test_a_timeout_is_a_truncation_and_cameras_see_the_boxes() -> None:
         point = step(env, point)
     assert point.truncated and not point.terminated and point.ticks == 6
     env.close()
+
+
+def test_the_pettingzoo_view_steps_the_physical_task_from_the_robots_cameras() -> None:
+    """PettingZoo's own API test over 40 decisions of the MuJoCo task, each robot's observation
+    its camera image beside its bits, and the overview drawn by ``render``."""
+    view = parallel_env(
+        TASK, seed=0, images=True, image_size=16, render_mode="rgb_array", overrides={"size": 4}
+    )
+    try:
+        parallel_api_test(view, num_cycles=40)
+        observations, _ = view.reset(seed=1)
+        assert all(o["image"].shape == (16, 16, 3) for o in observations.values())
+        assert view.render().std() > 10
+    finally:
+        view.close()
