@@ -35,7 +35,7 @@ def windows(run: RunData, counter: str, points: list[int]) -> list[str]:
 
 
 def main() -> None:
-    runs, points, counter = runs_at(__doc__)
+    runs, points, counter, _ = runs_at(__doc__)
     labels = [f"{t / 1000:g}K" for t in points]
     header = ["run", *(f"{a}–{b}" for a, b in zip(["0", *labels[:-1]], labels, strict=True))]
     print(f"Counter: {counter}; each window: training episodes, how many succeeded\n")

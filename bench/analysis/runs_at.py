@@ -9,10 +9,13 @@ from pathlib import Path
 from maopg.experiment.studies.runs import RunData, discover_runs
 
 
-def runs_at(doc: str) -> tuple[list[RunData], list[int], str]:
+def runs_at(
+    doc: str, parser: argparse.ArgumentParser | None = None
+) -> tuple[list[RunData], list[int], str, argparse.Namespace]:
     """Every run directory under the command line's ``DIR`` folders, finished or not, the points
-    T (positive, ascending) and the counter (maopg's ``samples`` by default)."""
-    parser = argparse.ArgumentParser(description=doc.split("\n")[0])
+    T (positive, ascending), the counter (maopg's ``samples`` by default) and the parsed
+    arguments (``parser``: a script's own, its options already added)."""
+    parser = parser or argparse.ArgumentParser(description=doc.split("\n")[0])
     parser.add_argument("dirs", nargs="+", type=Path)
     parser.add_argument("--at", required=True, help="points T, comma-separated, ascending")
     parser.add_argument("--counter", default="samples")
@@ -20,7 +23,7 @@ def runs_at(doc: str) -> tuple[list[RunData], list[int], str]:
     points = [int(t) for t in args.at.split(",")]
     if points != sorted(set(points)) or points[0] <= 0:
         parser.error(f"--at must be positive and ascending, got {args.at}")
-    return discover_runs(args.dirs, unfinished=True), points, args.counter
+    return discover_runs(args.dirs, unfinished=True), points, args.counter, args
 
 
 def label(run: RunData) -> str:

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import csv
 import math
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -274,3 +276,18 @@ def test_a_tiny_study_writes_its_tables_and_figure_from_the_logged_evaluations(t
             rows = [r for r in csv.DictReader(handle) if r["eval_return"] != "nan"]
         last = [float(r["eval_return"]) for r in rows if float(r["samples"]) <= 3_000][-5:]
         assert f"seed{run.seed} {sum(last) / len(last):.1f} (" in text
+
+
+def test_a_round_learner_read_at_the_published_cadence_keeps_every_sixth_rounds_evaluation():
+    """``bench/analysis/seed_values.py --every-rounds 6`` on a committed 10x10 ACAC run: the
+    number the Box Pushing page quotes for the authors' cadence, beside maopg's own."""
+    root = Path(__file__).parents[2]
+    run = root / "results/box-pushing-10/runs/box_pushing_grid/acac/seed1"
+    script = [sys.executable, str(root / "bench/analysis/seed_values.py"), str(run)]
+    script += ["--at", "100000", "--counter", PUBLISHED_COUNTER]
+    rows = {}
+    for every in ("1", "6"):
+        out = subprocess.run([*script, "--every-rounds", every], capture_output=True, text=True)
+        assert out.returncode == 0, out.stderr
+        rows[every] = out.stdout.splitlines()[-1]
+    assert rows["1"].endswith("| -18.0 |") and rows["6"].endswith("| 1.0 |")

@@ -164,7 +164,10 @@ sampled from the policy, every 2,000 samples. The published runs evaluate every 
 episodes, which is 1.1-1.3K steps on 6x6, 1.5-1.7K on 8x8 and 2.0-2.3K on 10x10 once converged
 (about 3K early on, when episodes are long); one cadence keeps the studies alike, and at 2,000
 a value at T (the last 5 evaluations) spans 10K samples, the published 10x10 window — twice
-the 6x6 one, a little smoother there. 250 evaluations per 500K run: at most 10 × 100 ticks
+the 6x6 one, a little smoother there. On the published counter, which ACAC's and MacroMARL's
+rounds advance by a fraction of the samples while ε is high, the same 5 span less training
+than the authors' (``bench/analysis/seed_values.py --every-rounds 6`` reads ACAC's runs at the
+authors' cadence instead). 250 evaluations per 500K run: at most 10 × 100 ticks
 each (their cost: :func:`_box_pushing_grid`, :func:`_box_pushing_mujoco`)."""
 RECURRENT_HISTORY = frozen(
     {"async-rnn": frozen({"ppo.option_history": True, "ppo.memory_norm": True})}
