@@ -213,13 +213,18 @@ def test_a_tiny_leaderboard_trains_what_no_study_runs_and_reads_the_rest(tmp_pat
     assert "Boards where one of the three has no runs yet: td." in text  # no acac, mac-iaicc
     assert "### What their policies do\n\nOn the boards" in text and "No board yet." in text
     # What the headline's seed-0 policy does (sync-cut is not the headline's): a line per agent.
-    (usage,) = headline_usage(board, board_runs(board, tmp_path / "lb/runs"), 2)
+    runs = board_runs(board, tmp_path / "lb/runs")
+    read = entries(board, runs, None)
+    (usage,) = headline_usage(board, runs, 2, read)
     assert usage[:2] == ("td", "async") and usage[2]["episodes"] == 2
+    assert usage[3] == next(e.final_return for e in read if (e.method, e.seed) == ("async", 0))
     assert set(usage[2]["choices"]) == {"turtlebot0", "turtlebot1", "fetch"}
     assert (tmp_path / "results/tiny/runs/tool_delivery/async/seed0/option_usage.json").exists()
     line = usage_table([usage]).splitlines()[2]
     assert re.match(
-        r"\| td \| `async` \| -?\d+\.\d \| \d+% \| [\d.]+ \| turtlebot0 \| \d+ choices — ", line
+        r"\| td \| `async` \| -?\d+\.\d \| -?\d+\.\d \| \d+% \| [\d.]+ \| turtlebot0 \| "
+        r"\d+ choices — ",
+        line,
     )
     # A second call trains nothing and writes the same tables.
     again, _ = reproduce_leaderboard(

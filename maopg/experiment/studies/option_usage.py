@@ -48,23 +48,34 @@ def option_usage(run: RunData, episodes: int = USAGE_EPISODES) -> dict | None:
     return cached(run.path / OPTION_USAGE, key, play)[0]
 
 
-def usage_table(rows: Sequence[tuple[str, str, dict]]) -> str:
-    """One line per ``(board, method, usage)`` and agent: return, success and length over the
-    episodes, and every option the agent chose, by its share."""
+def usage_table(rows: Sequence[tuple[str, str, dict, float]]) -> str:
+    """One line per ``(board, method, usage, read)`` and agent: return, success and length over
+    the episodes, the same run's final return as its board reads it (``read``), and every
+    option the agent chose, by its share."""
     table = []
-    for board, method, usage in rows:
+    for board, method, usage, read in rows:
         for i, (agent, choices) in enumerate(usage["choices"].items()):
             outcome = (
                 [
                     board,
                     f"`{method}`",
                     f"{usage['return_mean']:.1f}",
+                    f"{read:.1f}",
                     f"{usage['success_rate']:.0%}",
                     f"{usage['length_mean']:.1f}",
                 ]
                 if i == 0
-                else ["", "", "", "", ""]
+                else [""] * 6
             )
             table.append([*outcome, agent, option_shares(choices)])
-    header = ["board", "method (seed 0)", "return", "success", "length", "agent", "its options"]
+    header = [
+        "board",
+        "method (seed 0)",
+        "return",
+        "its run, as the board reads it",
+        "success",
+        "length",
+        "agent",
+        "its options",
+    ]
     return markdown_table(header, table)
