@@ -7,6 +7,7 @@ from __future__ import annotations
 import csv
 import math
 import re
+import shutil
 from dataclasses import replace
 from pathlib import Path
 
@@ -28,6 +29,7 @@ from maopg.experiment.studies.leaderboard import (
     evaluated_budget,
     headline_table,
     headline_usage,
+    pilot_budgets,
     reproduce_leaderboard,
 )
 from maopg.experiment.studies.option_usage import usage_table
@@ -232,3 +234,12 @@ def test_a_tiny_leaderboard_trains_what_no_study_runs_and_reads_the_rest(tmp_pat
     )
     assert set(again.values()) == {"skipped"}
     assert (tmp_path / "lb/tables.md").read_text() == text
+    # The tuning budget behind a piloted label is counted from the logged pilot runs.
+    assert pilot_budgets(tmp_path / "lb") == ""
+    trained = tmp_path / "results/tiny/runs/tool_delivery/async"
+    for seed in (0, 1):
+        shutil.copytree(trained / f"seed{seed}", tmp_path / f"lb/pilots/p{seed}/seed{seed}")
+    assert pilot_budgets(tmp_path / "lb") == (
+        " Tuning budgets, counted from the logged pilot runs (settings tried, runs, samples): "
+        "*few-episode settings* — `async` 2 pilots, 2 runs, 3.0K samples on tool_delivery."
+    )

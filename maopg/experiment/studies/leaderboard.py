@@ -135,6 +135,40 @@ TUNING_NOTE = (
 """What each :data:`TUNING` label means."""
 
 
+PILOTS = {FEW_EPISODES_TUNING["acac"]: Path("pilots"), EXPLORED: Path("../exploration/pilots")}
+"""Where the pilots behind each tuning label are logged, relative to the leaderboard's results
+(``bench/analysis/few_episode_pilots.py``, ``bench/analysis/exploration_pilots.py``)."""
+
+
+def pilot_budgets(results_dir: Path) -> str:
+    """The tuning budget behind each piloted label, counted from the logged pilot runs (finished
+    ones): per method, its pilots (settings tried), runs and samples trained, and the tasks they
+    ran on; empty where no pilots are logged."""
+    parts = []
+    for label, where in PILOTS.items():
+        root = results_dir / where
+        if not root.exists():
+            continue
+        by_method: dict[str, list[RunData]] = {}
+        for run in discover_runs([root]):
+            by_method.setdefault(run.method, []).append(run)
+        counts = [
+            f"`{method}` {_count(len({r.path.parent.name for r in runs}), 'pilot')}, "
+            f"{_count(len(runs), 'run')}, {_samples(sum(float(r.samples[-1]) for r in runs))} "
+            "samples on " + ", ".join(sorted({r.task for r in runs}))
+            for method, runs in sorted(by_method.items())
+        ]
+        if counts:
+            parts.append(f"*{label}* — {'; '.join(counts)}")
+    if not parts:
+        return ""
+    return (
+        " Tuning budgets, counted from the logged pilot runs (settings tried, runs, samples): "
+        + "; ".join(parts)
+        + "."
+    )
+
+
 @dataclass(frozen=True)
 class Board:
     """One task of the leaderboard: ``task`` of the committed study ``study`` (its settings,
@@ -350,6 +384,10 @@ def board_levels(board: Board, results_dir: Path, episodes: int) -> tuple[float,
 # ------------------------------------------------------------------------------- tables
 def _large(value: float) -> str:
     return f"{value / 1000:.0f}K" if abs(value) >= 10_000 else f"{value:.1f}"
+
+
+def _count(n: int, thing: str) -> str:
+    return f"{n} {thing}" if n == 1 else f"{n} {thing}s"
 
 
 def _samples(value: float) -> str:
@@ -598,6 +636,7 @@ def reproduce_leaderboard(
         "with a stratified bootstrap interval (Agarwal et al., NeurIPS 2021), over finished "
         "runs only (one still training stands only in its board's table). "
         + TUNING_NOTE
+        + pilot_budgets(out)
         + "\n\n## The paper's policy against the literature's\n\n"
         + headline_table(chosen, rows)
         + "\n### What their policies do\n\n"
