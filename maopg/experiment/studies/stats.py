@@ -75,7 +75,9 @@ def stratified_bootstrap_interval(
 ) -> tuple[float, float]:
     """The percentile interval of ``statistic`` over the runs of all tasks, each resample
     drawing every task's runs with replacement within that task (``scores``: one array of
-    per-seed normalised scores a task), so that every task keeps its weight."""
+    per-seed normalised scores a task), so that every task keeps its number of runs. The pooled
+    statistic weighs a task by its runs: ``rliable``'s tasks have equal runs, and where they do
+    not (a board of 3 seeds beside boards of 5) a task of fewer runs weighs less."""
     rng = np.random.default_rng(seed)
     draws = np.empty(resamples)
     for r in range(resamples):
