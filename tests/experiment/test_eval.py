@@ -437,6 +437,22 @@ def test_evaluate_a_mac_dqn_checkpoint_made_by_the_grid(tmp_path, capsys):
     assert "| mac-dqn seed0 @" in capsys.readouterr().out
 
 
+@pytest.mark.parametrize("method", ["acac", "mac-iaicc"])
+def test_evaluate_a_committed_checkpoint_of_the_literatures_methods(method, tmp_path, capsys):
+    """The 6x6 Box Pushing study's seed-0 weights of ACAC and Mac-IAICC (trained at their
+    published settings, committed): the evaluate command loads them and their sampled policy
+    delivers the big box in 6 ticks, every agent choosing its side of it and pushing."""
+    committed = Path(__file__).parents[2] / "results/box-pushing-6/runs/box_pushing_grid"
+    run_dir = tmp_path / "run"
+    for name in (FINAL, "config.json"):
+        run_dir.mkdir(exist_ok=True)
+        (run_dir / name).write_bytes((committed / method / "seed0" / name).read_bytes())
+    main(["evaluate", "--checkpoint", str(run_dir), "--episodes", "2", "--sample"])
+    out = capsys.readouterr().out
+    assert f"| {method} seed0 @" in out and "| 299.4 ± 0.0 | 100% | 6.0 ± 0.0 |" in out, out
+    assert "agent0: 4 choices — GoToBigBox(left) 50%, Push 50%" in out, out
+
+
 def _frames(path: Path) -> list[np.ndarray]:
     reader = imageio.get_reader(path)
     try:
