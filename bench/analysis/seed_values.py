@@ -7,10 +7,12 @@ Run: ``.venv/bin/python bench/analysis/seed_values.py DIR [DIR ...] --at 80000,1
 folders, finished or not, gives one row: its value at each T (reference §9: the mean of its
 last 5 evaluations logged at or before T on ``--counter``; maopg's ``samples`` by default,
 ``published_steps`` the counter of ACAC's and MacroMARL's logs), ``—`` where it has not trained
-that far or does not log the counter; the last row is the mean over the runs.
+that far or does not log the counter; a last row gives the mean over the runs where there are
+several.
 
-``--every-rounds K`` reads a round learner's evaluations at the published cadence: only the
-last evaluation logged in each block of K rounds (iterations). ACAC's published runs evaluate
+``--every-rounds K`` reads a round learner's evaluations (ACAC's, MacroMARL's: one iteration
+is one round) at the published cadence: only the last evaluation logged in each block of K
+rounds. ACAC's published runs evaluate
 every 96 episodes of their counter, every 6th round of 16 (reference §8), where maopg's
 evaluate every 2,000 of its samples, a round or two apart: their last 5 span a wider stretch of
 training than maopg's.
@@ -49,9 +51,8 @@ def main() -> None:
     k = args.every_rounds
     if k < 1:
         parser.error(f"--every-rounds must be a positive integer, got {k}")
-    cadence = "" if k == 1 else f", read every {k} rounds"
-    print(f"Counter: {counter}{cadence}; each run's value at T (the mean of its last 5")
-    print("evaluations)\n")
+    cadence = "" if k == 1 else f", every {k} rounds"
+    print(f"Counter: {counter}{cadence}; a run's value at T: the mean of its last 5 evaluations\n")
     print("| run | " + " | ".join(f"{t / 1000:g}K" for t in points) + " |")
     print("|" + "---|" * (len(points) + 1))
     table = []

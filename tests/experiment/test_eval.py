@@ -444,13 +444,14 @@ def test_evaluate_a_committed_checkpoint_of_the_literatures_methods(method, tmp_
     delivers the big box in 6 ticks, every agent choosing its side of it and pushing."""
     committed = Path(__file__).parents[2] / "results/box-pushing-6/runs/box_pushing_grid"
     run_dir = tmp_path / "run"
+    run_dir.mkdir()
     for name in (FINAL, "config.json"):
-        run_dir.mkdir(exist_ok=True)
         (run_dir / name).write_bytes((committed / method / "seed0" / name).read_bytes())
     main(["evaluate", "--checkpoint", str(run_dir), "--episodes", "2", "--sample"])
     out = capsys.readouterr().out
     assert f"| {method} seed0 @" in out and "| 299.4 ± 0.0 | 100% | 6.0 ± 0.0 |" in out, out
     assert "agent0: 4 choices — GoToBigBox(left) 50%, Push 50%" in out, out
+    assert "agent1: 4 choices — GoToBigBox(right) 50%, Push 50%" in out, out
 
 
 def _frames(path: Path) -> list[np.ndarray]:

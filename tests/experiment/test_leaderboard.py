@@ -239,6 +239,8 @@ def test_a_tiny_leaderboard_trains_what_no_study_runs_and_reads_the_rest(tmp_pat
     trained = tmp_path / "results/tiny/runs/tool_delivery/async"
     for seed in (0, 1):
         shutil.copytree(trained / f"seed{seed}", tmp_path / f"lb/pilots/p{seed}/seed{seed}")
+    # an exploration pilot on Tool Delivery chose no label's settings: it is not counted
+    shutil.copytree(trained / "seed0", tmp_path / "exploration/pilots/td/seed0")
     assert pilot_budgets(tmp_path / "lb") == (
         " Tuning budgets, counted from the logged pilot runs (settings tried, runs, samples): "
         "*few-episode settings* — `async` 2 pilots, 2 runs, 3.0K samples on tool_delivery."

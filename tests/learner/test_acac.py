@@ -10,6 +10,7 @@ import pytest
 import torch
 
 from maopg.env.vector import EnvConfig, SeededVectorEnv
+from maopg.env.vector_base import StepResult
 from maopg.learner import ACACConfig, ACACLearner, compute_gae
 from maopg.learner.acac import cut_short
 from maopg.policy import ObsBatch, stack_conditions
@@ -193,14 +194,17 @@ def test_a_round_trains_on_the_last_finished_episodes_and_counts_them(setup_for,
 
 class _Recorded(SeededVectorEnv):
     """The real vector environment, recording each finish as (round tick, environment, return,
-    ticks): the ground truth a round is checked against."""
+    ticks) and, before each step, the round tick every environment had passed: the ground truth
+    a round is checked against."""
 
     def restart(self) -> None:
         super().restart()
         self.elapsed = np.zeros(self.num_envs, dtype=np.int64)
         self.finishes: list[tuple[int, int, float, int]] = []
+        self.passed: list[int] = []
 
-    def step(self, joints: np.ndarray) -> list:
+    def step(self, joints: np.ndarray) -> list[StepResult]:
+        self.passed.append(int(self.elapsed.min()))
         results = super().step(joints)
         for e, result in enumerate(results):
             self.elapsed[e] += result.outcome.duration
@@ -220,22 +224,26 @@ def test_a_round_keeps_every_finish_by_the_cutoff_tick_and_trains_on_the_last(se
     envs.reset()
     learner = _learner(setup_for, envs, episodes_per_update=16)
     batch, finished, ticks = learner.collect(envs, 1.0)
+    for e in range(envs.num_envs):  # an environment's round ticks are its episodes' lengths
+        mine = [f for f in envs.finishes if f[1] == e]
+        assert [f[0] for f in mine] == list(np.cumsum([f[3] for f in mine]))
     cutoff = sorted(f[0] for f in envs.finishes)[15]
     counted = sorted((f for f in envs.finishes if f[0] <= cutoff), key=lambda f: (f[0], f[1]))
     assert len(counted) > 16  # a tie at the cutoff: every one of them counts
     assert [(e["return"], e["ticks"]) for e in finished] == [(f[2], f[3]) for f in counted]
     assert any(f[0] > cutoff for f in envs.finishes)  # finishes after the cutoff are dropped
-    assert envs.elapsed.min() >= cutoff and ticks == envs.elapsed.sum()
+    # it stops as soon as every environment has passed the cutoff, and not before
+    assert envs.passed[-1] < cutoff <= envs.elapsed.min() and ticks == envs.elapsed.sum()
     steps = batch.steps.numpy()
     assert np.allclose(batch.reward_sum.sum(axis=0), [f[2] for f in counted[-16:]])
     assert [int(batch.duration[steps[:, b], b].sum()) for b in range(16)] == [
         f[3] for f in counted[-16:]
     ]
-    learner.published_steps = 0
+    before = learner.published_steps
     learner.iteration(envs, 0)  # a second round, recorded afresh
-    assert learner.published_steps == sum(
-        f[3] for f in envs.finishes if f[0] <= sorted(g[0] for g in envs.finishes)[15]
-    )
+    cutoff = sorted(f[0] for f in envs.finishes)[15]
+    added = learner.published_steps - before
+    assert added == sum(f[3] for f in envs.finishes if f[0] <= cutoff)
     envs.close()
 
 

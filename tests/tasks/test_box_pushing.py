@@ -391,8 +391,9 @@ def test_a_timeout_is_a_truncation_and_cameras_see_the_boxes() -> None:
 
 
 def test_the_pettingzoo_view_steps_the_physical_task_from_the_robots_cameras() -> None:
-    """PettingZoo's own API test over 40 decisions of the MuJoCo task, each robot's observation
-    its camera image beside its bits, and the overview drawn by ``render``."""
+    """PettingZoo's own API test over an episode of the MuJoCo task (up to 40 decisions), each
+    robot's observation its camera image beside its bits, and the overview drawn by
+    ``render``."""
     view = parallel_env(
         TASK, seed=0, images=True, image_size=16, render_mode="rgb_array", overrides={"size": 4}
     )

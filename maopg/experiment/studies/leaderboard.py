@@ -107,7 +107,8 @@ TUNING: Mapping[str, str] = {
 }
 """How each method's settings were chosen, the label beside its rows (:data:`TUNING_NOTE`)
 unless a board says otherwise (:attr:`Board.tuning`)."""
-FEW_EPISODES_TUNING = frozen(dict.fromkeys(AGENT_METHODS, "few-episode settings"))
+FEW_EPISODES_LABEL = "few-episode settings"
+FEW_EPISODES_TUNING = frozen(dict.fromkeys(AGENT_METHODS, FEW_EPISODES_LABEL))
 """The label of :data:`~maopg.experiment.studies.builtin.FEW_EPISODES` beside its rows."""
 EXPLORED = "the grid's exploration"
 """Added to the label of the methods that explore by the Box Pushing tasks' training defaults."""
@@ -135,9 +136,14 @@ TUNING_NOTE = (
 """What each :data:`TUNING` label means."""
 
 
-PILOTS = {FEW_EPISODES_TUNING["acac"]: Path("pilots"), EXPLORED: Path("../exploration/pilots")}
-"""Where the pilots behind each tuning label are logged, relative to the leaderboard's results
-(``bench/analysis/few_episode_pilots.py``, ``bench/analysis/exploration_pilots.py``)."""
+PILOTS = {
+    FEW_EPISODES_LABEL: (Path("pilots"), ("tool_delivery",)),
+    EXPLORED: (Path("../exploration/pilots"), ("box_pushing_grid",)),
+}
+"""Each piloted tuning label: where its pilots are logged, relative to the leaderboard's results
+(``bench/analysis/few_episode_pilots.py``, ``bench/analysis/exploration_pilots.py``), and the
+tasks of the pilots that chose it (the exploration pilots on Tool Delivery decided where not to
+explore, which no row's label carries)."""
 
 
 def pilot_budgets(results_dir: Path) -> str:
@@ -145,13 +151,14 @@ def pilot_budgets(results_dir: Path) -> str:
     ones): per method, its pilots (settings tried), runs and samples trained, and the tasks they
     ran on; empty where no pilots are logged."""
     parts = []
-    for label, where in PILOTS.items():
+    for label, (where, tasks) in PILOTS.items():
         root = results_dir / where
         if not root.exists():
             continue
         by_method: dict[str, list[RunData]] = {}
         for run in discover_runs([root]):
-            by_method.setdefault(run.method, []).append(run)
+            if run.task in tasks:
+                by_method.setdefault(run.method, []).append(run)
         counts = [
             f"`{method}` {_count(len({r.path.parent.name for r in runs}), 'pilot')}, "
             f"{_count(len(runs), 'run')}, {_samples(sum(float(r.samples[-1]) for r in runs))} "
@@ -387,6 +394,7 @@ def _large(value: float) -> str:
 
 
 def _count(n: int, thing: str) -> str:
+    """``1 pilot``, ``2 pilots``."""
     return f"{n} {thing}" if n == 1 else f"{n} {thing}s"
 
 
@@ -517,7 +525,7 @@ def headline_table(boards: Sequence[Board], rows: Sequence[Entry]) -> str:
 
 
 def headline_usage(
-    board: Board, runs: Sequence[RunData], episodes: int, rows: Sequence[Entry] = ()
+    board: Board, runs: Sequence[RunData], episodes: int, rows: Sequence[Entry]
 ) -> list[tuple[str, str, dict, float]]:
     """``(board, method, usage, read)`` of the headline methods' seed-0 runs on ``board`` that
     kept their weights (:func:`~maopg.experiment.studies.option_usage.option_usage`); ``read``:

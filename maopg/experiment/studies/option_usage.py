@@ -12,6 +12,7 @@ the run directory's ``option_usage.json``, keyed as the studies' evaluations are
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 from maopg.experiment.evaluation.evaluate import evaluate, option_shares
@@ -60,7 +61,7 @@ def usage_table(rows: Sequence[tuple[str, str, dict, float]]) -> str:
                     board,
                     f"`{method}`",
                     f"{usage['return_mean']:.1f}",
-                    f"{read:.1f}",
+                    "—" if math.isnan(read) else f"{read:.1f}",
                     f"{usage['success_rate']:.0%}",
                     f"{usage['length_mean']:.1f}",
                 ]
