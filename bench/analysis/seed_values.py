@@ -12,10 +12,9 @@ several.
 
 ``--every-rounds K`` reads a round learner's evaluations (ACAC's, MacroMARL's: one iteration
 is one round) at the published cadence: only the last evaluation logged in each block of K
-rounds. ACAC's published runs evaluate
-every 96 episodes of their counter, every 6th round of 16 (reference §8), where maopg's
-evaluate every 2,000 of its samples, a round or two apart: their last 5 span a wider stretch of
-training than maopg's.
+rounds. ACAC's published runs evaluate every 96 episodes of their counter, every 6th round of
+16 (reference §8), where maopg's evaluate every 2,000 of its samples, a round or two apart:
+their last 5 span a wider stretch of training than maopg's.
 """
 
 from __future__ import annotations
