@@ -23,7 +23,7 @@ from maopg.env.contract import AgentSpec, DecisionPoint, EnvSpec, Strategy
 from maopg.options.base import Execution
 from maopg.sim.channels import RGB
 from maopg.sim.scene import PhysicsInstability
-from maopg.tasks.base import Task
+from maopg.tasks.base import Task, require_strategy
 
 
 class OptionEnv:
@@ -34,6 +34,7 @@ class OptionEnv:
     ) -> None:
         self.task = task
         self.strategy = Strategy(strategy)
+        require_strategy(type(task), task.name, self.strategy.value)
         if (self.strategy is Strategy.PRIMITIVE) != task.config.primitive:
             raise ValueError(
                 f"strategy {self.strategy.value!r} needs a task built with "

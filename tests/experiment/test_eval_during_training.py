@@ -24,7 +24,13 @@ from maopg.learner import load_checkpoint
 
 RUN = ["batch_ticks=60", "num_envs=2", "backend=threads", "env.max_ticks=30", "progress=false"]
 RUN += ["video=false", "eval_episodes=0", "plot=false", "checkpoint_every=2", "--seed", "1"]
-SECTION = {"async": ["ppo.epochs=2"], "mac-dqn": ["dqn.learning_starts=40", "dqn.train_every=20"]}
+SECTION = {
+    "async": ["ppo.epochs=2"],
+    "async-rnn": ["ppo.epochs=2"],
+    "mac-dqn": ["dqn.learning_starts=40", "dqn.train_every=20"],
+    "acac": ["acac.episodes_per_update=2"],
+    "mac-iaicc": ["maciaicc.episodes_per_update=2"],
+}
 EVALUATE = ["eval_every=120", "eval_during_episodes=2"]
 
 
@@ -45,11 +51,21 @@ def _evaluated(rows: list[dict[str, str]]) -> list[int]:
     return [int(r["samples"]) for r in rows if not math.isnan(float(r["eval_return"]))]
 
 
-@pytest.mark.parametrize(("method", "sample"), [("async", "true"), ("mac-dqn", "false")])
+@pytest.mark.parametrize(
+    ("method", "sample"),
+    [
+        ("async", "true"),
+        ("mac-dqn", "false"),
+        ("async-rnn", "true"),
+        ("acac", "true"),
+        ("mac-iaicc", "true"),
+    ],
+)
 def test_the_training_columns_are_the_same_with_evaluation_on_or_off(tmp_path, method, sample):
-    """MAPPO sampled and Mac-DQN greedy (ε 0): the evaluation draws from no stream of the
-    training, so the curve and the weights are the same bit for bit; without evaluation the
-    file has no evaluation column."""
+    """MAPPO sampled, Mac-DQN greedy (ε 0), and the other methods the Box Pushing studies
+    evaluate (the recurrent policy; ACAC's and Mac-IAICC's rounds, whose ε the evaluation
+    leaves out): the evaluation draws from no stream of the training, so the curve and the
+    weights are the same bit for bit; without evaluation the file has no evaluation column."""
     off = _run(tmp_path / "off", method, 240)
     on = _run(tmp_path / "on", method, 240, *EVALUATE, f"eval_during_sample={sample}")
     assert not set(EVAL_COLUMNS) & set(off[0]) and list(on[0])[-4:] == list(EVAL_COLUMNS)
@@ -62,9 +78,9 @@ def test_the_training_columns_are_the_same_with_evaluation_on_or_off(tmp_path, m
         if row["eval_return"] != "nan":
             assert float(row["eval_length"]) == 30.0 and 0 <= float(row["eval_success"]) <= 1
     weights = [load_checkpoint(tmp_path / name / "final.pt") for name in ("off", "on")]
-    key = "policy" if method == "async" else "q"
-    for name, tensor in weights[0][key].items():
-        assert weights[1][key][name].equal(tensor), name
+    for key in ("q",) if method == "mac-dqn" else ("policy", "critic"):
+        for name, tensor in weights[0][key].items():
+            assert weights[1][key][name].equal(tensor), (key, name)
 
 
 def test_an_evaluation_logged_before_a_resume_is_kept_not_redone(tmp_path, monkeypatch):

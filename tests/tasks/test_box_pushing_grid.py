@@ -23,6 +23,7 @@ from maopg.tasks.box_pushing_grid.world import (
     MACROS,
     PRIMITIVES,
     RUNNING,
+    WEST,
     GridWorld,
 )
 
@@ -221,6 +222,28 @@ def test_goto_durations_from_the_starts_and_from_everywhere() -> None:
             durations.append(duration(w, goto))
         assert max(d for d in durations if d is not None) == longest[size]
         assert durations.count(None) == (32 if size == 4 else 0)
+
+
+def test_navigation_ignores_the_walls() -> None:
+    """Reference §3.3: on 6x6 a GoTo started above the box row walks one column outside the
+    grid and comes back in at its waypoint: from (0.5, 4.5) facing west, GoToSmallBox(0)
+    steps out to x = -0.5 (no wall stops it, no penalty), walks south past the small box and
+    steps back in to (0.5, 2.5); GoToSmallBox(1) from the same start crosses the grid and
+    walks down outside it at x = 6.5."""
+    w = world(6)
+    for goto, outside in ((GT_SB0, -0.5), (GT_SB1, 6.5)):
+        w.reset()
+        a = w.agents[0]
+        a.x, a.y, a.ori = 0.5, 4.5, WEST
+        path, rewards = [], []
+        rewards.append(w.step([goto, STAY]))
+        path.append((a.x, a.y))
+        while not a.done:
+            rewards.append(w.step([RUNNING, STAY]))
+            path.append((a.x, a.y))
+        assert {(outside, y) for y in (4.5, 3.5, 2.5)} <= set(path), path
+        assert (a.x, a.y) == w.layout.waypoints[goto] and a.waypoint == goto
+        assert rewards == [-0.1] * len(rewards)  # no penalty on the way out or back
 
 
 def test_goto_ends_on_the_waypoint_facing_north_and_records_it() -> None:

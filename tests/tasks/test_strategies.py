@@ -7,7 +7,8 @@ from __future__ import annotations
 import pytest
 
 from examples.berries import BerryConfig, BerryField
-from maopg.env import Strategy
+from maopg.env import Strategy, make_env
+from maopg.env.pettingzoo import parallel_env
 from maopg.experiment.cli.eval_cli import main as eval_main
 from maopg.experiment.cli.train_cli import main as train_main
 from maopg.tasks import Task, registry, task_class, task_names
@@ -78,3 +79,12 @@ def test_sync_wait_on_a_task_without_hold_is_one_line_before_anything_is_written
 def test_an_evaluation_under_an_unsupported_strategy_is_one_line(standstill, user_error):
     argv = ["evaluate", "--reference", "random", "--task", standstill, "--strategy", "all"]
     user_error(eval_main, argv, r"task 'standstill' does not support strategy 'all'")
+
+
+@pytest.mark.parametrize("build", [make_env, parallel_env])
+def test_the_environment_apis_refuse_an_unsupported_strategy(standstill, build):
+    """Building the environment (:func:`maopg.env.make_env`, the PettingZoo view) under a
+    strategy the task does not run refuses it there, not at its first idle tick."""
+    with pytest.raises(ValueError, match=r"^task 'standstill' does not support strategy 'all'"):
+        build(standstill, "all")
+    build(standstill, "continue").close()

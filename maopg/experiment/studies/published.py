@@ -161,7 +161,8 @@ PUBLISHED: Mapping[str, Mapping[str, tuple[tuple[float, float], ...]]] = {
     for size, methods in PUBLISHED_RUNS.items()
 }
 """Each published method's value at each of :data:`PUBLISHED_SAMPLES` as ``(mean, sample
-SD)`` over its seeds: the box-pushing reference's §9 table, to its rounding."""
+SD)`` over its seeds: the box-pushing reference's §9 table, to its rounding but where the
+seeds' three decimals tip a last digit (bp10 ACAC at 100K: 37.650 here, 37.6 there)."""
 PUBLISHED_THRESHOLDS = {"bp6": 240.0, "bp8": 200.0, "bp10": 200.0}
 """The published table's thresholds (box-pushing reference §9, "first ≥ thr")."""
 PUBLISHED_FIRST: Mapping[str, Mapping[str, float]] = {
@@ -489,8 +490,10 @@ def published_sections(runs: Sequence[RunData], published: str) -> list[tuple[st
         f"{how}); a seed's value at T is the mean of its last {LAST} evaluations "
         "(`eval_return`) at or before T samples, and a row is the mean ± sample SD (ddof 1) "
         f"over its seeds, as the published table reads the ACAC logs (box-pushing reference "
-        f"§9). The published rows are that table's {published}: published facts, typed in, not "
-        "maopg's results.\n\n"
+        f"§9). The published rows are that table's {published}, computed from the authors' "
+        "values of each seed (their logs, to 3 decimals, by the same rule): published facts, "
+        "not maopg's results; from those decimals a last digit can differ by one from the "
+        "reference's table.\n\n"
         "T is on maopg's counter: every simulated tick of every environment, episodes cut at "
         "a batch boundary included. The published counter counts only the ticks of finished "
         "training episodes (reference §8), so at the same T a maopg run has simulated at most "
