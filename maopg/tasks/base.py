@@ -71,7 +71,8 @@ class Task(ABC):
 
     strategies: ClassVar[frozenset[Strategy] | None] = None
     """The termination strategies the task runs under (docs/DESIGN.md §3), checked before a
-    run or an evaluation builds it (:func:`require_strategy`). ``None`` (the default): derived
+    run or an evaluation builds it and wherever an environment is built over it
+    (:func:`require_strategy`). ``None`` (the default): derived
     from the class (:meth:`supported_strategies`): every strategy where it has a :meth:`hold`
     of its own, else ``continue`` and ``primitive`` only — ``all`` idles the agents that
     finished with it, and ``any`` stops the interrupted options with it (the default
