@@ -72,10 +72,10 @@ class Task(ABC):
     strategies: ClassVar[frozenset[Strategy] | None] = None
     """The termination strategies the task runs under (docs/DESIGN.md §3), checked before a
     run or an evaluation builds it and wherever an environment is built over it
-    (:func:`require_strategy`). ``None`` (the default): derived
-    from the class (:meth:`supported_strategies`): every strategy where it has a :meth:`hold`
-    of its own, else ``continue`` and ``primitive`` only — ``all`` idles the agents that
-    finished with it, and ``any`` stops the interrupted options with it (the default
+    (:func:`require_strategy`). ``None`` (the default): derived from the class
+    (:meth:`supported_strategies`): every strategy where it has a :meth:`hold` of its own,
+    else ``continue`` and ``primitive`` only — ``all`` idles the agents that finished with it,
+    and ``any`` stops the interrupted options with it (the default
     :meth:`maopg.options.base.Option.interrupt`). A task declares them where that does not fit:
     one whose options all interrupt without ``hold()`` adds ``any``; one whose :meth:`options`
     ignore ``config.primitive`` (the one-tick primitive actions of ``primitive``) leaves that
